@@ -1,0 +1,40 @@
+# crane_fem developer entry points. `make test` and `make demo` create the venv on first use.
+SHELL := /bin/bash
+VENV ?= .venv
+BIN := $(VENV)/bin
+NP ?= 2
+# Python >= 3.12: an explicit PYTHON, else python3.12 on PATH, else pyenv's newest 3.12.
+PYTHON ?= $(shell command -v python3.12 2>/dev/null || ls -d $$HOME/.pyenv/versions/3.12*/bin/python3.12 2>/dev/null | tail -n 1)
+
+.PHONY: install test lint test-serial test-mpi demo bench clean
+
+$(BIN)/.installed: pyproject.toml
+	@test -n "$(PYTHON)" || { echo "make: no Python 3.12 found (set PYTHON=/path/to/python3.12)"; exit 1; }
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[dev]'
+	touch $@
+
+install: $(BIN)/.installed
+
+lint: $(BIN)/.installed
+	$(BIN)/ruff check crane_fem tests benchmarks demos
+	$(BIN)/mypy crane_fem
+
+# pytest exits 5 when it collected no test: that is a failure here, as is any non-zero code.
+test-serial: $(BIN)/.installed
+	$(BIN)/python -m pytest -q tests
+
+test-mpi: $(BIN)/.installed
+	$(BIN)/mpiexec -n $(NP) $(BIN)/python -m pytest -q tests
+
+test: lint test-serial test-mpi
+
+demo: $(BIN)/.installed
+	$(BIN)/crane-fem run demos/bar_impact.toml -o out/bar_impact
+
+bench: $(BIN)/.installed
+	$(BIN)/python benchmarks/convergence.py
+
+clean:
+	rm -rf out .mypy_cache .ruff_cache

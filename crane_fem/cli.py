@@ -1,0 +1,82 @@
+"""The ``crane-fem`` command: ``run`` and ``check`` a scenario."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+from pathlib import Path
+
+from crane_fem import _compat  # noqa: F401  (MPI before dolfinx)
+from crane_fem.errors import CraneFemError
+
+__all__ = ["main"]
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="crane-fem",
+        description="Seismic analysis of structures with impacts (CD-Lagrange, Newmark, GC).",
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    run = sub.add_parser("run", help="run a scenario")
+    run.add_argument("scenario", type=Path, help="scenario TOML file")
+    run.add_argument("-o", "--output", type=Path, default=None,
+                     help="output directory (default: out/<scenario name>)")
+    run.add_argument("--set", dest="overrides", action="append", default=[],
+                     metavar="KEY.PATH=VALUE", help="override a key; VALUE is a TOML value")
+    run.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                     help="force the progress bar on/off (default: on a terminal)")
+    check = sub.add_parser("check", help="validate a scenario without running it")
+    check.add_argument("scenario", type=Path)
+    check.add_argument("--set", dest="overrides", action="append", default=[],
+                       metavar="KEY.PATH=VALUE")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit code (0 ok, 2 bad input, 3 unstable run)."""
+    from mpi4py import MPI
+
+    from crane_fem.errors import ScenarioError, UnstableRunError
+    from crane_fem.scenario import load_scenario
+
+    args = _parser().parse_args(argv)
+    comm = MPI.COMM_WORLD
+    rank0 = comm.rank == 0
+    try:
+        sc = load_scenario(args.scenario, args.overrides)
+        if args.command == "check":
+            if rank0:
+                print(f"{args.scenario}: ok ({sc.model.kind}, {sc.integrator.scheme})")
+            return 0
+        from crane_fem.driver import run_scenario
+
+        outdir = args.output if args.output is not None else Path("out") / sc.name
+        with warnings.catch_warnings():
+            warnings.simplefilter("always")
+            warnings.formatwarning = lambda m, c, *a, **k: f"crane-fem: warning: {m}\n"
+            result = run_scenario(sc, outdir, comm, progress=args.progress)
+        s = result.summary
+        if rank0:
+            print(
+                f"crane-fem: {sc.name}: {s['steps']} steps of Δt = {s['dt']:.4e} s "
+                f"(critical {s['dt_critical']:.4e} s) in {s['wall_time_s']:.2f} s; "
+                f"energy balance error {s['energy_balance_error']:.2e}; "
+                f"{s['contact_intervals']} contact interval(s)"
+            )
+            print(f"crane-fem: outputs in {outdir}/ (history.csv, summary.json, solution.xdmf)")
+        return 0
+    except ScenarioError as exc:
+        print(f"crane-fem: error: {exc}", file=sys.stderr)
+        return 2
+    except UnstableRunError as exc:
+        print(f"crane-fem: error: {exc}", file=sys.stderr)
+        return 3
+    except CraneFemError as exc:
+        print(f"crane-fem: error: {exc}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,51 @@
+"""Exact solution of the small velocity-level LCP 0 ≤ Λ ⟂ q + W Λ ≥ 0 (W symmetric positive)."""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+import scipy.linalg
+import scipy.optimize
+
+__all__ = ["solve_lcp"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def solve_lcp(
+    W: FloatArray, q: FloatArray, active: npt.NDArray[np.bool_], diagonal: bool
+) -> FloatArray:
+    """Impulses Λ with 0 ≤ Λ ⟂ q + W Λ ≥ 0 on ``active`` points and Λ = 0 elsewhere.
+
+    Not collective: every rank holds the same ``W`` and ``q`` and gets the same answer.
+
+    Args:
+        W: Delassus operator (p × p, symmetric positive definite on the active set).
+        q: free relative normal velocities (p,).
+        active: points whose gap is closed (g ≤ 0).
+        diagonal: ``W`` is diagonal (contact points share no DOF): closed form, point by point.
+
+    Returns:
+        Λ (p,), the impulses (N·s).
+    """
+    lam = np.zeros_like(q)
+    idx = np.flatnonzero(active)
+    if idx.size == 0:
+        return lam
+    if diagonal:
+        lam[idx] = np.maximum(0.0, -q[idx] / W[idx, idx])
+        return lam
+    # With W = Rᵀ R, the LCP is the optimality system of min ½ΛᵀWΛ + qᵀΛ over Λ ≥ 0,
+    # i.e. the non-negative least-squares problem min |R Λ + R⁻ᵀ q|²; Lawson–Hanson's
+    # active-set NNLS terminates finitely with the exact solution (up to round-off).
+    Waa = W[np.ix_(idx, idx)]
+    try:
+        R = scipy.linalg.cholesky(Waa, lower=False)
+    except np.linalg.LinAlgError:
+        raise ValueError(
+            "contact Delassus operator is singular: two active constraints are redundant"
+        ) from None
+    b = -scipy.linalg.solve_triangular(R, q[idx], trans="T", lower=False)
+    sol, _ = scipy.optimize.nnls(R, b)
+    lam[idx] = sol
+    return lam

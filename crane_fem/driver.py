@@ -1,0 +1,242 @@
+"""Run a scenario: build, integrate, monitor, and feed the writers (history, XDMF, summary)."""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+import warnings
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+from tqdm import tqdm
+
+from crane_fem.errors import UnstableRunError
+from crane_fem.integrators import CDLagrange, CDPenalty, MoreauJean, StepRecord, TimeIntegrator
+from crane_fem.io import HistoryWriter, XDMFSeries, write_summary
+from crane_fem.problems import Problem, create_problem
+from crane_fem.scenario import Scenario
+from crane_fem.stability import EnergyGrowthMonitor, critical_time_step, max_frequency
+
+__all__ = ["RunResult", "Simulation", "run_scenario"]
+
+FloatArray = npt.NDArray[np.float64]
+
+ENERGY_COLUMNS = [
+    "kinetic",
+    "internal",
+    "external_work",
+    "damping_dissipated",
+    "contact_dissipated",
+    "numerical_dissipated",
+    "total",
+]
+
+
+class Simulation:
+    """A scenario's problem, step sizes and integrator (collective; ``destroy`` releases all).
+
+    Attributes:
+        dt: time step (s); ``dt_critical``: critical explicit step of the mesh (s);
+        dt_critical_penalty: the step limit with the penalty springs closed (penalty only).
+    """
+
+    def __init__(self, sc: Scenario, comm: MPI.Comm) -> None:
+        self.scenario = sc
+        self.comm = comm
+        self.problem: Problem = create_problem(comm, sc)
+        model = self.problem.model
+        self.omega_max = max_frequency(model)
+        alpha, beta = model.alpha, model.beta
+        self.dt_critical = critical_time_step(self.omega_max, alpha, beta)
+        self.dt_critical_penalty: float | None = None
+        integ = sc.integrator
+        if integ.scheme == "penalty" and integ.penalty is not None:
+            omega_p = max_frequency(model, (self.problem.contacts, integ.penalty))
+            self.dt_critical_penalty = critical_time_step(omega_p, alpha, beta)
+        if sc.time.dt is not None:
+            self.dt = sc.time.dt
+        else:
+            assert sc.time.dt_factor is not None
+            self.dt = sc.time.dt_factor * self.dt_critical
+        self.n_steps = max(1, math.ceil(sc.time.end / self.dt - 1e-9))
+        limit = self.dt_critical_penalty or self.dt_critical
+        if integ.scheme != "moreau-jean" and self.dt > limit:
+            warnings.warn(
+                f"time step {self.dt:.4e} s exceeds the critical explicit step {limit:.4e} s "
+                f"({self.dt / limit:.3f}×): the run is expected to diverge",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+        p = self.problem
+        args = (model, p.contacts, p.load, self.dt, p.u0, p.v0)
+        self.integrator: TimeIntegrator
+        if integ.scheme == "cd-lagrange":
+            self.integrator = CDLagrange(*args)
+        elif integ.scheme == "penalty":
+            assert integ.penalty is not None
+            self.integrator = CDPenalty(*args, stiffness=integ.penalty)
+        else:
+            self.integrator = MoreauJean(*args, theta=integ.theta_value)
+        self.monitor = EnergyGrowthMonitor(
+            sc.monitor.energy_growth,
+            subdomain="bar",
+            scheme=integ.scheme,
+            dt=self.dt,
+            dt_critical=limit if integ.scheme != "moreau-jean" else math.inf,
+        )
+
+    def records(self) -> Iterator[StepRecord]:
+        """Yield the record at t = 0 and after every step; raise on divergence (collective)."""
+        for rec in self.integrator.run(self.n_steps):
+            self.monitor.check(rec)
+            yield rec
+
+    def destroy(self) -> None:
+        self.integrator.destroy()
+        self.problem.destroy()
+
+
+@dataclass
+class RunResult:
+    """Summary and the in-memory history (global values, identical on every rank)."""
+
+    summary: dict[str, Any]
+    history: dict[str, FloatArray] = field(default_factory=dict)
+
+
+def _contact_intervals(times: list[float], active: list[bool]) -> list[tuple[float, float]]:
+    """Maximal runs of consecutive steps with a non-zero contact impulse: (first, last) times."""
+    out: list[tuple[float, float]] = []
+    start: float | None = None
+    last = 0.0
+    for t, a in zip(times, active, strict=True):
+        if a and start is None:
+            start = t
+        if not a and start is not None:
+            out.append((start, last))
+            start = None
+        last = t
+    if start is not None:
+        out.append((start, last))
+    return out
+
+
+def run_scenario(
+    sc: Scenario,
+    outdir: str | Path,
+    comm: MPI.Comm | None = None,
+    progress: bool | None = None,
+) -> RunResult:
+    """Run ``sc`` and write ``history.csv``, ``summary.json`` and ``solution.xdmf`` in ``outdir``.
+
+    Collective over ``comm`` (default: COMM_WORLD, chosen here at the entry point).
+
+    Raises:
+        UnstableRunError: divergence detected; files written so far stay valid and the
+            summary records the diagnosis.
+    """
+    comm = MPI.COMM_WORLD if comm is None else comm
+    out = Path(outdir)
+    t_wall = time.perf_counter()
+    sim = Simulation(sc, comm)
+    p, integ, dt = sim.problem, sim.integrator, sim.dt
+    contacts = p.contacts
+    groups = contacts.group_names
+    columns = ["t", *ENERGY_COLUMNS, "contact_force", "active_contacts"]
+    columns += [f"gap_{g}" for g in groups] + [f"force_{g}" for g in groups]
+    columns += [f"velocity_{b.name}" for b in p.bodies]
+    history: dict[str, list[float]] = {c: [] for c in columns}
+    every = sc.output.every
+    xdmf_every = sc.output.xdmf_every or max(1, sim.n_steps // 200)
+    show = progress if progress is not None else sc.output.progress
+    show_bar = comm.rank == 0 and (sys.stderr.isatty() if show == "auto" else bool(show))
+
+    summary: dict[str, Any] = {
+        "scenario": sc.name,
+        "scheme": sc.integrator.scheme,
+        "dt": dt,
+        "dt_critical": sim.dt_critical,
+        "dt_critical_penalty": sim.dt_critical_penalty,
+        "dt_over_dt_critical": dt / sim.dt_critical,
+        "omega_max": sim.omega_max,
+        "steps": sim.n_steps,
+        "h_min": p.h_min,
+        "wave_speed": p.wave_speed,
+        "mpi_size": comm.size,
+        "status": "running",
+    }
+    times: list[float] = []
+    active: list[bool] = []
+    total0: float | None = None
+    scale = 0.0
+    max_drift = 0.0
+    xdmf = XDMFSeries(out / "solution.xdmf", p.model.V,
+                      ["displacement", "velocity", "contact_force"]) if sc.output.xdmf else None
+    bar = tqdm(total=sim.n_steps, disable=not show_bar, delay=2.0, mininterval=0.5,
+               unit="step", desc=sc.name)
+    try:
+        with HistoryWriter(out / "history.csv", columns, comm) as writer:
+            for rec in sim.records():
+                en = rec.energy
+                total = en.total
+                if total0 is None:
+                    total0 = total
+                scale = max(scale, abs(en.kinetic) + abs(en.internal) + abs(en.external_work))
+                max_drift = max(max_drift, abs(total - total0))
+                force = rec.impulse / dt
+                times.append(rec.t)
+                active.append(bool(np.any(rec.impulse > 0.0)))
+                if rec.step % every == 0 or rec.step == sim.n_steps:
+                    row = {"t": rec.t, **en.as_dict()}
+                    row["contact_force"] = float(force.sum())
+                    row["active_contacts"] = float(np.count_nonzero(rec.impulse > 0.0))
+                    gmin = contacts.group_mins(rec.gaps)
+                    gsum = contacts.group_sums(force)
+                    for i, g in enumerate(groups):
+                        row[f"gap_{g}"] = float(gmin[i])
+                        row[f"force_{g}"] = float(gsum[i])
+                    local = [float(np.dot(p.model.mass[b.owned], rec.v[b.owned])) for b in p.bodies]
+                    momenta = comm.allreduce(np.array(local), op=MPI.SUM) if local else []
+                    for b, mom in zip(p.bodies, momenta, strict=True):
+                        row[f"velocity_{b.name}"] = float(mom) / b.mass
+                    writer.write(row)
+                    for c in columns:
+                        history[c].append(row[c])
+                if xdmf is not None and (rec.step % xdmf_every == 0 or rec.step == sim.n_steps):
+                    xdmf.write(rec.t, {
+                        "displacement": rec.u,
+                        "velocity": rec.v,
+                        "contact_force": contacts.transpose(force, p.model.n_owned),
+                    })
+                bar.update(1 if rec.step > 0 else 0)
+        summary["status"] = "completed"
+    except UnstableRunError as exc:
+        summary["status"] = "unstable"
+        summary["diagnosis"] = str(exc)
+        raise
+    finally:
+        bar.close()
+        if xdmf is not None:
+            xdmf.close()
+        intervals = _contact_intervals(times, active)
+        summary.update(
+            {
+                "steps_done": len(times) - 1,
+                "wall_time_s": comm.allreduce(time.perf_counter() - t_wall, op=MPI.MAX),
+                "energy_balance_error": max_drift / scale if scale > 0 else 0.0,
+                "energy_balance_error_abs": max_drift,
+                "contact_intervals": len(intervals),
+                "contact_interval_times": intervals[:100],
+            }
+        )
+        write_summary(out / "summary.json", summary, comm)
+        sim.destroy()
+        comm.barrier()
+    arrays = {c: np.asarray(v, dtype=np.float64) for c, v in history.items()}
+    return RunResult(summary, arrays)

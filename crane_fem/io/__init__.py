@@ -1,0 +1,7 @@
+"""Outputs: history CSV, summary JSON and XDMF time series, written as the run goes."""
+
+from crane_fem.io.history import HistoryWriter, read_history
+from crane_fem.io.summary import write_summary
+from crane_fem.io.xdmf import XDMFSeries
+
+__all__ = ["HistoryWriter", "XDMFSeries", "read_history", "write_summary"]

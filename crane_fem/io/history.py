@@ -1,0 +1,64 @@
+"""history.csv: one row per output step, written by rank 0 and flushed row by row."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from types import TracebackType
+
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+
+__all__ = ["HistoryWriter", "read_history"]
+
+
+class HistoryWriter:
+    """CSV writer on rank 0 of ``comm``; other ranks hold no file. Values must be global.
+
+    Each row is flushed, so an interrupted run leaves a valid file of complete rows.
+    """
+
+    def __init__(self, path: Path, columns: list[str], comm: MPI.Comm) -> None:
+        self.columns = columns
+        self._file = None
+        self._writer = None
+        if comm.rank == 0:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            self._file = path.open("w", newline="", encoding="utf-8")
+            self._writer = csv.writer(self._file)
+            self._writer.writerow(columns)
+            self._file.flush()
+
+    def write(self, row: dict[str, float]) -> None:
+        if self._writer is None or self._file is None:
+            return
+        self._writer.writerow([repr(float(row[c])) for c in self.columns])
+        self._file.flush()
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+            self._writer = None
+
+    def __enter__(self) -> HistoryWriter:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+
+def read_history(path: str | Path) -> dict[str, npt.NDArray[np.float64]]:
+    """Read a history.csv into ``{column: array}`` (not collective)."""
+    with Path(path).open(encoding="utf-8") as f:
+        reader = csv.reader(f)
+        header = next(reader)
+        rows = [[float(x) for x in r] for r in reader if r]
+    data = np.array(rows, dtype=np.float64).reshape(-1, len(header))
+    return {name: data[:, i] for i, name in enumerate(header)}

@@ -1,0 +1,107 @@
+"""Structural model: assembled stiffness, lumped mass, Rayleigh damping and fixed DOFs."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import dolfinx
+import dolfinx.fem.petsc
+import numpy as np
+import numpy.typing as npt
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+__all__ = ["StructuralModel", "assemble_bar_operators"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass
+class StructuralModel:
+    """Linear elastic structure ``M a + C v + K u = f`` on one function space.
+
+    Arrays (``mass``, ``minv``, ``fixed``) hold the DOFs owned by this rank only, in the
+    PETSc/dolfinx owned ordering. ``minv`` is zero on fixed (clamped) DOFs, so any explicit
+    update leaves them at rest. The model owns ``K``: call :meth:`destroy` (collective).
+
+    Attributes:
+        V: function space of the displacement.
+        K: assembled stiffness (rows/columns of fixed DOFs zeroed, unit diagonal), N/m.
+        mass: row-sum lumped mass, kg (ghost contributions accumulated before use).
+        fixed: True on clamped DOFs.
+        alpha, beta: Rayleigh coefficients, C = alpha M + beta K.
+    """
+
+    V: dolfinx.fem.FunctionSpace
+    K: PETSc.Mat
+    mass: FloatArray
+    fixed: npt.NDArray[np.bool_]
+    alpha: float = 0.0
+    beta: float = 0.0
+    minv: FloatArray = field(init=False)
+
+    def __post_init__(self) -> None:
+        if np.any(self.mass[~self.fixed] <= 0.0):
+            raise ValueError("lumped mass has a non-positive entry on a free DOF")
+        self.minv = np.where(self.fixed, 0.0, 1.0 / np.where(self.fixed, 1.0, self.mass))
+
+    @property
+    def comm(self) -> MPI.Comm:
+        return self.V.mesh.comm
+
+    @property
+    def n_owned(self) -> int:
+        return int(self.mass.size)
+
+    @property
+    def damped(self) -> bool:
+        return self.alpha != 0.0 or self.beta != 0.0
+
+    def create_vector(self, array: FloatArray) -> PETSc.Vec:
+        """A PETSc Vec that shares memory with the owned-DOF ``array`` (caller destroys)."""
+        n_global = self.K.getSize()[0]
+        return PETSc.Vec().createWithArray(array, size=(array.size, n_global), comm=self.comm)
+
+    def destroy(self) -> None:
+        """Destroy the PETSc objects (collective)."""
+        self.K.destroy()
+
+
+def _lumped(vec: PETSc.Vec) -> FloatArray:
+    vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    return np.array(vec.array_r, dtype=np.float64)
+
+
+def assemble_bar_operators(
+    V: dolfinx.fem.FunctionSpace,
+    E: float,
+    rho: float,
+    area: dolfinx.fem.Function,
+    fixed_dofs: npt.NDArray[np.int32],
+) -> tuple[PETSc.Mat, FloatArray]:
+    """Assemble the axial-bar stiffness ∫ E A u' w' dx and the row-sum lumped mass ∫ ρ A w dx.
+
+    For P1 the row sum of the consistent mass equals nodal (GLL) quadrature: the element mass
+    ρ A h is split in halves onto its two nodes. Collective over the mesh communicator.
+
+    Returns:
+        ``(K, mass)``: the caller owns ``K``; ``mass`` holds the owned DOFs only.
+    """
+    u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
+    dx = ufl.dx(domain=V.mesh)
+    k_form = dolfinx.fem.form(E * area * ufl.inner(ufl.grad(u), ufl.grad(w)) * dx)
+    m_form = dolfinx.fem.form(rho * area * w * dx)
+    # Every rank builds the (possibly empty) condition: assembly with bcs is collective.
+    zero = dolfinx.fem.Constant(V.mesh, np.float64(0.0))
+    bcs = [dolfinx.fem.dirichletbc(zero, fixed_dofs, V)]
+    K = dolfinx.fem.petsc.assemble_matrix(k_form, bcs=bcs, diag=1.0)
+    K.assemble()
+    mvec = dolfinx.fem.petsc.assemble_vector(m_form)
+    mass = _lumped(mvec)
+    mvec.destroy()
+    return K, mass
+
+
+LoadFunction = Callable[[float], FloatArray]

@@ -1,0 +1,139 @@
+"""Stability: the critical explicit step from λ_max(M⁻¹K) (SLEPc), and divergence detection."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from petsc4py import PETSc
+from slepc4py import SLEPc
+
+from crane_fem.contact import ContactSet
+from crane_fem.errors import UnstableRunError
+from crane_fem.integrators.base import StepRecord
+from crane_fem.model import StructuralModel
+
+__all__ = ["EnergyGrowthMonitor", "critical_time_step", "max_frequency"]
+
+
+def max_frequency(model: StructuralModel, extra: tuple[ContactSet, float] | None = None) -> float:
+    """ω_max = √λ_max(M⁻¹ K) in rad/s (collective).
+
+    Solved as the symmetric problem D K D x = λ x with D = M^{-1/2} (zero on fixed DOFs) by
+    SLEPc's Krylov–Schur (options prefix ``crane_fem_dtcrit_``). ``extra = (contacts, k)`` adds
+    the penalty springs k Lᵀ L (all contacts closed).
+    """
+    A = model.K.copy()
+    if extra is not None:
+        contacts, k = extra
+        # Lᵀ L for points sharing no DOF: k c² on the diagonal of each contact DOF.
+        if contacts.p:
+            d = np.zeros(model.n_owned)
+            np.add.at(d, contacts.dofs, k * contacts.coeffs**2)
+            dvec = model.create_vector(d)
+            A.setDiagonal(dvec, addv=PETSc.InsertMode.ADD_VALUES)
+            dvec.destroy()
+            _add_offdiagonal_penalty(A, contacts, k, model)
+    s = model.create_vector(np.sqrt(model.minv))
+    A.diagonalScale(s, s)
+    eps = SLEPc.EPS().create(model.comm)
+    try:
+        eps.setOptionsPrefix("crane_fem_dtcrit_")
+        eps.setOperators(A)
+        eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
+        eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_REAL)
+        eps.setTolerances(1e-12, 10000)
+        eps.setDimensions(1)
+        eps.setFromOptions()
+        eps.solve()
+        if eps.getConverged() < 1:
+            raise RuntimeError("SLEPc did not converge on λ_max(M⁻¹K)")
+        lam = float(eps.getEigenvalue(0).real)
+    finally:
+        eps.destroy()
+        s.destroy()
+        A.destroy()
+    return math.sqrt(max(lam, 0.0))
+
+
+def _add_offdiagonal_penalty(
+    A: PETSc.Mat, contacts: ContactSet, k: float, model: StructuralModel
+) -> None:
+    """Cross terms k c_i c_j of node-to-node penalty springs (terms of one point on two DOFs)."""
+    # Global row indices of the terms owned here, gathered so every rank knows each point's terms.
+    rstart = model.K.getOwnershipRange()[0]
+    local = [(int(r), int(d) + rstart, float(c)) for r, d, c in
+             zip(contacts.rows, contacts.dofs, contacts.coeffs, strict=True)]
+    terms = [t for part in model.comm.allgather(local) for t in part]
+    A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+    by_point: dict[int, list[tuple[int, float]]] = {}
+    for r, g, c in terms:
+        by_point.setdefault(r, []).append((g, c))
+    lo, hi = model.K.getOwnershipRange()
+    for items in by_point.values():
+        for gi, ci in items:
+            if not lo <= gi < hi:
+                continue
+            for gj, cj in items:
+                if gj != gi:
+                    A.setValue(gi, gj, k * ci * cj, addv=PETSc.InsertMode.ADD_VALUES)
+    A.assemble()
+
+
+def critical_time_step(omega_max: float, alpha: float = 0.0, beta: float = 0.0) -> float:
+    """Largest stable central-difference step for ω_max with Rayleigh damping C = αM + βK.
+
+    Central difference with the damping force lagged at V_{n-1/2} has the characteristic
+    polynomial λ² − (2 − c − w) λ + (1 − c), c = (α + β ω²) Δt, w = ω² Δt²; it is stable iff
+    w + 2c ≤ 4, i.e. Δt ≤ [−(α + βω²) + √((α + βω²)² + 4 ω²)] / ω² (= 2/ω undamped).
+    """
+    if omega_max <= 0.0:
+        return math.inf
+    a = alpha + beta * omega_max**2
+    return (-a + math.sqrt(a * a + 4.0 * omega_max**2)) / omega_max**2
+
+
+@dataclass
+class EnergyGrowthMonitor:
+    """Stops a diverging run: kinetic energy above ``factor`` × the energy supplied so far.
+
+    The energy supplied is the initial energy plus the accumulated |external work|; a stable
+    run with dissipative contact never exceeds it, while an unstable one grows geometrically
+    and crosses any fixed factor within a few dozen steps. Non-finite values stop at once.
+    """
+
+    factor: float
+    subdomain: str
+    scheme: str
+    dt: float
+    dt_critical: float
+    _supplied: float = 0.0
+    _last_work: float = 0.0
+    _initialized: bool = False
+
+    def check(self, rec: StepRecord) -> None:
+        """Raise :class:`UnstableRunError` on divergence (same verdict on every rank)."""
+        en = rec.energy
+        if not self._initialized:
+            self._supplied = abs(en.kinetic) + abs(en.internal)
+            self._last_work = en.external_work
+            self._initialized = True
+        self._supplied += abs(en.external_work - self._last_work)
+        self._last_work = en.external_work
+        values = (en.kinetic, en.internal, en.external_work, en.contact_dissipated)
+        if not all(math.isfinite(x) for x in values):
+            reason = "non-finite energy (NaN/Inf)"
+        elif en.kinetic > self.factor * max(self._supplied, 1e-300):
+            reason = (
+                f"kinetic energy {en.kinetic:.3e} J exceeds {self.factor:g}× the energy "
+                f"supplied ({self._supplied:.3e} J)"
+            )
+        else:
+            return
+        ratio = self.dt / self.dt_critical if self.dt_critical > 0 else math.inf
+        raise UnstableRunError(
+            f"unstable run: subdomain '{self.subdomain}' ({self.scheme}) at step {rec.step} "
+            f"(t = {rec.t:.6g} s): {reason}; Δt = {self.dt:.4e} s is {ratio:.3f}× the "
+            f"critical step {self.dt_critical:.4e} s"
+        )
