@@ -59,13 +59,14 @@ class Simulation:
         if integ.scheme == "penalty" and integ.penalty is not None:
             omega_p = max_frequency(model, (self.problem.contacts, integ.penalty))
             self.dt_critical_penalty = critical_time_step(omega_p, alpha, beta)
+        # The explicit limit of the scheme: with penalty, the springs (all closed) count too.
+        limit = min(self.dt_critical, self.dt_critical_penalty or math.inf)
         if sc.time.dt is not None:
             self.dt = sc.time.dt
         else:
             assert sc.time.dt_factor is not None
-            self.dt = sc.time.dt_factor * self.dt_critical
+            self.dt = sc.time.dt_factor * limit
         self.n_steps = max(1, math.ceil(sc.time.end / self.dt - 1e-9))
-        limit = self.dt_critical_penalty or self.dt_critical
         if integ.scheme != "moreau-jean" and self.dt > limit:
             warnings.warn(
                 f"time step {self.dt:.4e} s exceeds the critical explicit step {limit:.4e} s "

@@ -27,6 +27,9 @@ __all__ = [
 PositiveFloat = Annotated[float, Field(gt=0)]
 NonNegativeFloat = Annotated[float, Field(ge=0)]
 PositiveInt = Annotated[int, Field(gt=0)]
+Pair = Annotated[list[float], Field(min_length=2, max_length=2)]
+NonNegativePair = Annotated[list[NonNegativeFloat], Field(min_length=2, max_length=2)]
+Vector3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 
 
 class _Section(BaseModel):
@@ -60,14 +63,14 @@ class Material(_Section):
 
     E: PositiveFloat
     rho: PositiveFloat
-    rayleigh: tuple[NonNegativeFloat, NonNegativeFloat] = (0.0, 0.0)
+    rayleigh: NonNegativePair = [0.0, 0.0]
 
 
 class Initial(_Section):
     """Initial state of the first bar: uniform velocity, linear displacement [left, right]."""
 
     velocity: float = 0.0
-    displacement: tuple[float, float] = (0.0, 0.0)
+    displacement: Pair = [0.0, 0.0]
 
 
 class Contact(_Section):
@@ -126,7 +129,7 @@ class Integrator(_Section):
 class Loading(_Section):
     """Body loads: gravity acceleration vector (m/s²); a bar uses its x component."""
 
-    gravity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    gravity: Vector3 = [0.0, 0.0, 0.0]
 
 
 class Output(_Section):

@@ -1,0 +1,48 @@
+"""Shared fixtures: MPI-safe temporary directories and scenario builders."""
+
+import crane_fem  # noqa: F401  (loads MPI before dolfinx: keep first)
+
+import copy
+from pathlib import Path
+from typing import Any
+
+import pytest
+from mpi4py import MPI
+
+from crane_fem.driver import RunResult, run_scenario
+from crane_fem.scenario import Scenario, parse_scenario
+
+COMM = MPI.COMM_WORLD
+
+
+@pytest.fixture
+def shared_tmp(tmp_path: Path) -> Path:
+    """A temporary directory that is the same on every rank (rank 0's)."""
+    return Path(COMM.bcast(str(tmp_path), root=0))
+
+
+BASE: dict[str, Any] = {
+    "name": "test",
+    "model": {"kind": "bar", "length": 1.0, "elements": 100},
+    "material": {"E": 1.0, "rho": 1.0},
+    "initial": {"velocity": -1.0},
+    "contact": [{"type": "wall", "gap": 0.1}],
+    "time": {"end": 2.5, "dt_factor": 0.9},
+    "integrator": {"scheme": "cd-lagrange"},
+    "output": {"xdmf": False},
+}
+
+
+def make_scenario(**sections: Any) -> Scenario:
+    """BASE with whole sections or ``section={key: value}`` merged in."""
+    data = copy.deepcopy(BASE)
+    for name, value in sections.items():
+        if isinstance(value, dict) and isinstance(data.get(name), dict):
+            data[name].update(value)
+        else:
+            data[name] = value
+    return parse_scenario(data)
+
+
+def run(sc: Scenario, outdir: Path) -> RunResult:
+    return run_scenario(sc, outdir, COMM, progress=False)
