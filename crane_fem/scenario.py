@@ -209,7 +209,9 @@ def _allowed_keys(section: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
 
 def _format_error(source: str, exc: ValidationError) -> str:
     """One line: ``source: key.path: what is wrong (got value)``."""
-    err = exc.errors()[0]
+    # An unknown key is usually the root cause (a typo that also leaves a key missing).
+    errors = sorted(exc.errors(), key=lambda e: e["type"] != "extra_forbidden")
+    err = errors[0]
     loc = tuple(err["loc"])
     path = ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in loc).replace(".[", "[")
     kind = err["type"]

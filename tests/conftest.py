@@ -46,3 +46,13 @@ def make_scenario(**sections: Any) -> Scenario:
 
 def run(sc: Scenario, outdir: Path) -> RunResult:
     return run_scenario(sc, outdir, COMM, progress=False)
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Tests marked ``serial`` launch their own MPI jobs: run them only in the serial pass."""
+    if COMM.size == 1:
+        return
+    skip = pytest.mark.skip(reason="serial-only (launches its own mpiexec)")
+    for item in items:
+        if "serial" in item.keywords:
+            item.add_marker(skip)
