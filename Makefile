@@ -19,6 +19,7 @@ install: $(BIN)/.installed
 
 lint: $(BIN)/.installed
 	$(BIN)/ruff check crane_fem tests benchmarks demos
+	$(BIN)/ruff format --check crane_fem tests benchmarks demos
 	$(BIN)/mypy crane_fem
 
 # pytest exits 5 when it collected no test: that is a failure here, as is any non-zero code.

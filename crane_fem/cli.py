@@ -21,16 +21,32 @@ def _parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a scenario")
     run.add_argument("scenario", type=Path, help="scenario TOML file")
-    run.add_argument("-o", "--output", type=Path, default=None,
-                     help="output directory (default: out/<scenario name>)")
-    run.add_argument("--set", dest="overrides", action="append", default=[],
-                     metavar="KEY.PATH=VALUE", help="override a key; VALUE is a TOML value")
-    run.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
-                     help="force the progress bar on/off (default: on a terminal)")
+    run.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        default=None,
+        help="output directory (default: out/<scenario name>)",
+    )
+    run.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY.PATH=VALUE",
+        help="override a key; VALUE is a TOML value",
+    )
+    run.add_argument(
+        "--progress",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="force the progress bar on/off (default: on a terminal)",
+    )
     check = sub.add_parser("check", help="validate a scenario without running it")
     check.add_argument("scenario", type=Path)
-    check.add_argument("--set", dest="overrides", action="append", default=[],
-                       metavar="KEY.PATH=VALUE")
+    check.add_argument(
+        "--set", dest="overrides", action="append", default=[], metavar="KEY.PATH=VALUE"
+    )
     return parser
 
 

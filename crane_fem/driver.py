@@ -146,7 +146,7 @@ def run_scenario(
     out = Path(outdir)
     t_wall = time.perf_counter()
     sim = Simulation(sc, comm)
-    p, integ, dt = sim.problem, sim.integrator, sim.dt
+    p, dt = sim.problem, sim.dt
     contacts = p.contacts
     groups = contacts.group_names
     columns = ["t", *ENERGY_COLUMNS, "contact_force", "active_contacts"]
@@ -177,10 +177,19 @@ def run_scenario(
     total0: float | None = None
     scale = 0.0
     max_drift = 0.0
-    xdmf = XDMFSeries(out / "solution.xdmf", p.model.V,
-                      ["displacement", "velocity", "contact_force"]) if sc.output.xdmf else None
-    bar = tqdm(total=sim.n_steps, disable=not show_bar, delay=2.0, mininterval=0.5,
-               unit="step", desc=sc.name)
+    xdmf = (
+        XDMFSeries(out / "solution.xdmf", p.model.V, ["displacement", "velocity", "contact_force"])
+        if sc.output.xdmf
+        else None
+    )
+    bar = tqdm(
+        total=sim.n_steps,
+        disable=not show_bar,
+        delay=2.0,
+        mininterval=0.5,
+        unit="step",
+        desc=sc.name,
+    )
     try:
         with HistoryWriter(out / "history.csv", columns, comm) as writer:
             for rec in sim.records():
@@ -210,11 +219,14 @@ def run_scenario(
                     for c in columns:
                         history[c].append(row[c])
                 if xdmf is not None and (rec.step % xdmf_every == 0 or rec.step == sim.n_steps):
-                    xdmf.write(rec.t, {
-                        "displacement": rec.u,
-                        "velocity": rec.v,
-                        "contact_force": contacts.transpose(force, p.model.n_owned),
-                    })
+                    xdmf.write(
+                        rec.t,
+                        {
+                            "displacement": rec.u,
+                            "velocity": rec.v,
+                            "contact_force": contacts.transpose(force, p.model.n_owned),
+                        },
+                    )
                 bar.update(1 if rec.step > 0 else 0)
         summary["status"] = "completed"
     except UnstableRunError as exc:

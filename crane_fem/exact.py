@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -128,12 +129,12 @@ class BouncingBar:
 
     # --- modal projections -------------------------------------------------------------
     def _free_modes(self) -> tuple[FloatArray, FloatArray]:
-        k = np.arange(1, self.n_modes + 1)
+        k = np.arange(1, self.n_modes + 1, dtype=np.float64)
         kappa = k * math.pi / self.length
         return kappa, self.c * kappa
 
     def _fixed_modes(self) -> tuple[FloatArray, FloatArray]:
-        k = np.arange(1, self.n_modes + 1)
+        k = np.arange(1, self.n_modes + 1, dtype=np.float64)
         kappa = (2 * k - 1) * math.pi / (2.0 * self.length)
         return kappa, self.c * kappa
 
@@ -144,7 +145,7 @@ class BouncingBar:
         return (2.0 / self.length) * (basis * (self._w * f)).sum(axis=1)
 
     # --- phases ------------------------------------------------------------------------
-    def _flight(self, u: FloatArray, v: FloatArray):  # type: ignore[no-untyped-def]
+    def _flight(self, u: FloatArray, v: FloatArray) -> tuple[Any, Any]:
         kappa, omega = self._free_modes()
         basis = np.cos(np.outer(kappa, self._x))
         a, b = self._project(u, basis), self._project(v, basis)
@@ -166,14 +167,14 @@ class BouncingBar:
 
         return end_disp, state
 
-    def _contact(self, u: FloatArray, v: FloatArray):  # type: ignore[no-untyped-def]
+    def _contact(self, u: FloatArray, v: FloatArray) -> tuple[Any, Any]:
         kappa, omega = self._fixed_modes()
         basis = np.sin(np.outer(kappa, self._x))
         us = self._static(self._x)
         a, b = self._project(u + self.height - us, basis), self._project(v, basis)
 
         # Lanczos σ-factors tame the Gibbs oscillation of the end stress at wave fronts.
-        k = np.arange(1, self.n_modes + 1)
+        k = np.arange(1, self.n_modes + 1, dtype=np.float64)
         sigma = np.sinc(k / (self.n_modes + 1.0))
 
         def reaction(tau: FloatArray) -> FloatArray:
@@ -210,10 +211,16 @@ class BouncingBar:
                 self.phases.append(("flight", t, t_end, u.copy(), v.copy()))
                 break
             i = int(hit[0])
-            tau_c = scipy.optimize.brentq(
-                lambda s: float(self.height + end_disp(np.array([s]))[0]),
-                taus[i], taus[i + 1], xtol=1e-13,
-            ) if gap[i] > 0.0 else taus[i]
+            tau_c = (
+                scipy.optimize.brentq(
+                    lambda s, f=end_disp: float(self.height + f(np.array([s]))[0]),
+                    taus[i],
+                    taus[i + 1],
+                    xtol=1e-13,
+                )
+                if gap[i] > 0.0
+                else taus[i]
+            )
             self.phases.append(("flight", t, t + tau_c, u.copy(), v.copy()))
             u, v = fstate(tau_c)
             t += tau_c
@@ -228,7 +235,10 @@ class BouncingBar:
             else:
                 j = int(neg[0])
                 tau_r = scipy.optimize.brentq(
-                    lambda s: float(reaction(np.array([s]))[0]), taus[j - 1], taus[j], xtol=1e-12
+                    lambda s, f=reaction: float(f(np.array([s]))[0]),
+                    taus[j - 1],
+                    taus[j],
+                    xtol=1e-12,
                 )
             self.phases.append(("contact", t, t + tau_r, u.copy(), v.copy()))
             u, v = cstate(tau_r)

@@ -62,7 +62,12 @@ class StructuralModel:
     def create_vector(self, array: FloatArray) -> PETSc.Vec:
         """A PETSc Vec that shares memory with the owned-DOF ``array`` (caller destroys)."""
         n_global = self.K.getSize()[0]
-        return PETSc.Vec().createWithArray(array, size=(array.size, n_global), comm=self.comm)
+        # petsc4py stubs want a Sequence and a PETSc.Comm; an ndarray and an mpi4py comm work.
+        return PETSc.Vec().createWithArray(
+            array,
+            size=(array.size, n_global),
+            comm=self.comm,  # type: ignore[arg-type]
+        )
 
     def destroy(self) -> None:
         """Destroy the PETSc objects (collective)."""
@@ -70,7 +75,7 @@ class StructuralModel:
 
 
 def _lumped(vec: PETSc.Vec) -> FloatArray:
-    vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+    vec.ghostUpdate(addv=True, mode="reverse")  # addv=True: ADD_VALUES
     return np.array(vec.array_r, dtype=np.float64)
 
 

@@ -53,9 +53,7 @@ def _input_node_of_dof(bar: BarMesh, V: dolfinx.fem.FunctionSpace) -> npt.NDArra
     dofs = V.dofmap.list
     n_local = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
     out = np.full(n_local, -1, dtype=np.int64)
-    out[dofs.ravel()] = np.asarray(mesh.geometry.input_global_indices, dtype=np.int64)[
-        geom.ravel()
-    ]
+    out[dofs.ravel()] = np.asarray(mesh.geometry.input_global_indices, dtype=np.int64)[geom.ravel()]
     return out
 
 
@@ -87,9 +85,12 @@ def create_problem(comm: MPI.Comm, sc: Scenario) -> Problem:
     n_own = V.dofmap.index_map.size_local
     first_right = bar.first_node[0] + segments[0].elements
 
-    fixed_local = np.flatnonzero(node == first_right) if mdl.clamp == "right" else np.zeros(0, dtype=np.int64)
-    K, mass = assemble_bar_operators(V, sc.material.E, sc.material.rho, area,
-                                     fixed_local.astype(np.int32))
+    fixed_local = (
+        np.flatnonzero(node == first_right) if mdl.clamp == "right" else np.zeros(0, dtype=np.int64)
+    )
+    K, mass = assemble_bar_operators(
+        V, sc.material.E, sc.material.rho, area, fixed_local.astype(np.int32)
+    )
     fixed = np.zeros(n_own, dtype=bool)
     fixed[fixed_local[fixed_local < n_own]] = True
     alpha, beta = sc.material.rayleigh

@@ -33,7 +33,7 @@ Vector3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 
 
 class _Section(BaseModel):
-    """Strict section: no unknown keys, no string-to-number coercion (ints are accepted as floats)."""
+    """Strict section: no unknown keys, no string-to-number coercion (ints pass as floats)."""
 
     model_config = ConfigDict(strict=True, extra="forbid", frozen=True)
 

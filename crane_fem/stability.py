@@ -32,7 +32,7 @@ def max_frequency(model: StructuralModel, extra: tuple[ContactSet, float] | None
             d = np.zeros(model.n_owned)
             np.add.at(d, contacts.dofs, k * contacts.coeffs**2)
             dvec = model.create_vector(d)
-            A.setDiagonal(dvec, addv=PETSc.InsertMode.ADD_VALUES)
+            A.setDiagonal(dvec, addv=True)  # addv=True: ADD_VALUES
             dvec.destroy()
             _add_offdiagonal_penalty(A, contacts, k, model)
     s = model.create_vector(np.sqrt(model.minv))
@@ -63,10 +63,12 @@ def _add_offdiagonal_penalty(
     """Cross terms k c_i c_j of node-to-node penalty springs (terms of one point on two DOFs)."""
     # Global row indices of the terms owned here, gathered so every rank knows each point's terms.
     rstart = model.K.getOwnershipRange()[0]
-    local = [(int(r), int(d) + rstart, float(c)) for r, d, c in
-             zip(contacts.rows, contacts.dofs, contacts.coeffs, strict=True)]
+    local = [
+        (int(r), int(d) + rstart, float(c))
+        for r, d, c in zip(contacts.rows, contacts.dofs, contacts.coeffs, strict=True)
+    ]
     terms = [t for part in model.comm.allgather(local) for t in part]
-    A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+    A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)  # type: ignore[arg-type]
     by_point: dict[int, list[tuple[int, float]]] = {}
     for r, g, c in terms:
         by_point.setdefault(r, []).append((g, c))
@@ -77,7 +79,7 @@ def _add_offdiagonal_penalty(
                 continue
             for gj, cj in items:
                 if gj != gi:
-                    A.setValue(gi, gj, k * ci * cj, addv=PETSc.InsertMode.ADD_VALUES)
+                    A.setValue(gi, gj, k * ci * cj, addv=True)  # ADD_VALUES
     A.assemble()
 
 

@@ -1,7 +1,5 @@
 """Shared fixtures: MPI-safe temporary directories and scenario builders."""
 
-import crane_fem  # noqa: F401  (loads MPI before dolfinx: keep first)
-
 import copy
 from pathlib import Path
 from typing import Any
@@ -9,6 +7,7 @@ from typing import Any
 import pytest
 from mpi4py import MPI
 
+import crane_fem  # noqa: F401  (loads MPI before dolfinx: keep first)
 from crane_fem.driver import RunResult, run_scenario
 from crane_fem.scenario import Scenario, parse_scenario
 

@@ -13,25 +13,58 @@ from xdmf_reader import read_xdmf
 from crane_fem.cli import main
 from crane_fem.io import read_history
 
-ENERGIES = {"kinetic", "internal", "external_work", "damping_dissipated", "contact_dissipated",
-            "numerical_dissipated", "total"}
+ENERGIES = {
+    "kinetic",
+    "internal",
+    "external_work",
+    "damping_dissipated",
+    "contact_dissipated",
+    "numerical_dissipated",
+    "total",
+}
 SCENARIO = Path(__file__).parent.parent / "demos" / "bar_impact.toml"
-COLUMNS = ["t", "kinetic", "internal", "external_work", "contact_dissipated", "total",
-           "contact_force", "damping_dissipated", "numerical_dissipated"]
+COLUMNS = [
+    "t",
+    "kinetic",
+    "internal",
+    "external_work",
+    "contact_dissipated",
+    "total",
+    "contact_force",
+    "damping_dissipated",
+    "numerical_dissipated",
+]
 
 
 def test_cli_run_writes_history_summary_xdmf(shared_tmp) -> None:
     out = shared_tmp / "run"
-    code = main(["run", str(SCENARIO), "-o", str(out), "--set", "output.every=2",
-                 "--set", "model.elements=50", "--no-progress"])
+    code = main(
+        [
+            "run",
+            str(SCENARIO),
+            "-o",
+            str(out),
+            "--set",
+            "output.every=2",
+            "--set",
+            "model.elements=50",
+            "--no-progress",
+        ]
+    )
     assert code == 0
     COMM.barrier()
     hist = read_history(out / "history.csv")
     for col in COLUMNS:
         assert col in hist
     summary = json.loads((out / "summary.json").read_text())
-    for key in ("dt", "dt_critical", "steps", "wall_time_s", "energy_balance_error",
-                "contact_intervals"):
+    for key in (
+        "dt",
+        "dt_critical",
+        "steps",
+        "wall_time_s",
+        "energy_balance_error",
+        "contact_intervals",
+    ):
         assert key in summary
     assert summary["status"] == "completed" and summary["mpi_size"] == COMM.size
     assert hist["t"].size == summary["steps"] // 2 + 1 + (summary["steps"] % 2)
@@ -44,7 +77,7 @@ def test_cli_run_writes_history_summary_xdmf(shared_tmp) -> None:
     assert np.all(np.diff(times) > 0)
     # Global check, independent of the node order: the leftmost material point is the contact
     # end, whose position is the wall gap in the history.
-    t_end, u_end = fields["displacement"][-1]
+    _, u_end = fields["displacement"][-1]
     position = geometry[:, 0] + u_end.ravel()
     assert position.min() == pytest.approx(hist["gap_wall"][-1], rel=1e-12, abs=1e-15)
     # Contact force field sums to the total contact force at its time.
@@ -62,18 +95,32 @@ def test_mpiexec_two_ranks_same_histories_as_serial(tmp_path) -> None:
     exe = Path(sys.executable).parent / "crane-fem"
     cases = {
         "wall": ["--set", "model.elements=101"],
-        "bars": ["--set", "model.elements=60", "--set", "contact=[{type='bars', gap=0.001}]",
-                 "--set", "model.second_bar={length=1.0, elements=40, area=1e-4, velocity=-5.0}",
-                 "--set", "initial.velocity=5.0"],
-        "mj": ["--set", "integrator.scheme='moreau-jean'", "--set", "integrator.theta=1.0",
-               "--set", "time.dt_factor=3.0"],
+        "bars": [
+            "--set",
+            "model.elements=60",
+            "--set",
+            "contact=[{type='bars', gap=0.001}]",
+            "--set",
+            "model.second_bar={length=1.0, elements=40, area=1e-4, velocity=-5.0}",
+            "--set",
+            "initial.velocity=5.0",
+        ],
+        "mj": [
+            "--set",
+            "integrator.scheme='moreau-jean'",
+            "--set",
+            "integrator.theta=1.0",
+            "--set",
+            "time.dt_factor=3.0",
+        ],
     }
     for name, extra in cases.items():
         serial, par = tmp_path / f"{name}1", tmp_path / f"{name}2"
         base = [str(exe), "run", str(SCENARIO), "--set", "output.xdmf=false", *extra]
         subprocess.run([*base, "-o", str(serial)], check=True, capture_output=True)
-        subprocess.run([str(mpiexec), "-n", "2", *base, "-o", str(par)], check=True,
-                       capture_output=True)
+        subprocess.run(
+            [str(mpiexec), "-n", "2", *base, "-o", str(par)], check=True, capture_output=True
+        )
         h1, h2 = read_history(serial / "history.csv"), read_history(par / "history.csv")
         assert json.loads((par / "summary.json").read_text())["mpi_size"] == 2
         assert h1.keys() == h2.keys()

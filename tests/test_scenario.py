@@ -45,23 +45,42 @@ BAD = [
     ("E = 1.0", "E = true", ["material.E", "valid number"]),
     ("end = 0.5", "", ["time.end", "required key is missing"]),
     ("dt_factor = 0.9", "dt_factor = 0.9\ndt = 1e-3", ["exactly one of time.dt"]),
-    ('scheme = "cd-lagrange"', 'scheme = "verlet"',
-     ["integrator.scheme", "'cd-lagrange', 'moreau-jean' or 'penalty'", "'verlet'"]),
-    ('scheme = "cd-lagrange"', 'scheme = "penalty"', ["integrator.penalty", "required by 'penalty'"]),
-    ('scheme = "cd-lagrange"', 'scheme = "moreau-jean"\ntheta = 1.5',
-     ["integrator.theta", "less than or equal to 1"]),
-    ('scheme = "cd-lagrange"', 'scheme = "cd-lagrange"\ntheta = 0.5',
-     ["integrator.theta applies to 'moreau-jean' only"]),
+    (
+        'scheme = "cd-lagrange"',
+        'scheme = "verlet"',
+        ["integrator.scheme", "'cd-lagrange', 'moreau-jean' or 'penalty'", "'verlet'"],
+    ),
+    (
+        'scheme = "cd-lagrange"',
+        'scheme = "penalty"',
+        ["integrator.penalty", "required by 'penalty'"],
+    ),
+    (
+        'scheme = "cd-lagrange"',
+        'scheme = "moreau-jean"\ntheta = 1.5',
+        ["integrator.theta", "less than or equal to 1"],
+    ),
+    (
+        'scheme = "cd-lagrange"',
+        'scheme = "cd-lagrange"\ntheta = 0.5',
+        ["integrator.theta applies to 'moreau-jean' only"],
+    ),
     ("gap = 0.1", "gap = -0.1", ["contact[0].gap", "greater than or equal to 0"]),
     ('type = "wall"', 'type = "bars"', ["contact type 'bars' and [model.second_bar]"]),
     ('kind = "bar"', 'kind = "beam"', ["model.kind", "'bar'", "'beam'"]),
     ("elements = 10", "elements = 10.5", ["model.elements", "valid integer"]),
     ("elements = 10", "elements = 0", ["model.elements", "greater than 0"]),
-    ("[output]", "[loading]\ngravity = [0.0, -9.81]\n[output]",
-     ["loading.gravity", "at least 3 items"]),
-    ("velocity = -1.0", "velocity = -1.0\ndisplacement = [0.1, 0.2]\n[model.clamp]",
-     ["model"]),
-    ("[time]", "[time]\nstart = 0.0", ["time.start", "unknown key", "allowed here: dt, dt_factor, end"]),
+    (
+        "[output]",
+        "[loading]\ngravity = [0.0, -9.81]\n[output]",
+        ["loading.gravity", "at least 3 items"],
+    ),
+    ("velocity = -1.0", "velocity = -1.0\ndisplacement = [0.1, 0.2]\n[model.clamp]", ["model"]),
+    (
+        "[time]",
+        "[time]\nstart = 0.0",
+        ["time.start", "unknown key", "allowed here: dt, dt_factor, end"],
+    ),
     ("[output]", "[outputs]", ["outputs", "unknown key"]),
 ]
 
@@ -96,8 +115,15 @@ def test_missing_file_and_toml_syntax(tmp_path, capsys) -> None:
 
 def test_set_overrides_are_toml_values(tmp_path, capsys) -> None:
     path = _write(tmp_path, GOOD)
-    sc = load_scenario(path, ["integrator.scheme='penalty'", "integrator.penalty=1e3",
-                              "model.elements=20", "loading.gravity=[0, 0, -9.81]"])
+    sc = load_scenario(
+        path,
+        [
+            "integrator.scheme='penalty'",
+            "integrator.penalty=1e3",
+            "model.elements=20",
+            "loading.gravity=[0, 0, -9.81]",
+        ],
+    )
     assert sc.integrator.scheme == "penalty" and sc.integrator.penalty == 1e3
     assert sc.model.elements == 20 and sc.loading.gravity == [0.0, 0.0, -9.81]
     assert main(["check", str(path), "--set", "integrator.scheme=penalty"]) == 2

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from conftest import make_scenario, run
 
-from crane_fem.exact import BouncingBar, renard_chouly_contact_end, renard_chouly_displacement
+from crane_fem.exact import BouncingBar, renard_chouly_contact_end
 
 
 @pytest.fixture(scope="module")
@@ -38,8 +38,9 @@ def test_bouncing_bar_two_impacts(shared_tmp, bouncing_reference) -> None:
         # Two impacts in [0, 6], each lasting 2L/c = 2/3 within 2h/c + Δt, starting when the
         # modal series says (within the same bound).
         assert s["contact_intervals"] == 2
-        for (a, b), (ra, rb) in zip(s["contact_interval_times"], ref.contact_intervals()[:2],
-                                    strict=True):
+        for (a, b), (ra, _rb) in zip(
+            s["contact_interval_times"], ref.contact_intervals()[:2], strict=True
+        ):
             assert abs((b - a) - 2 * L / c) <= 2 * h_el / c + dt
             assert abs(a - ra) <= 2 * h_el / c + dt
         errors.append(np.max(np.abs(h["gap_wall"] - ref.contact_end_height(h["t"]))))
@@ -63,7 +64,7 @@ def test_two_bars_swap_velocities(shared_tmp) -> None:
     res = run(sc, shared_tmp)
     s, h = res.summary, res.history
     assert s["contact_intervals"] == 1
-    (a, b), = s["contact_interval_times"]
+    ((a, b),) = s["contact_interval_times"]
     assert abs(a - 0.05) <= s["dt"]  # tips meet after gap / (2 v0)
     assert abs((b - a) - 2.0) <= 2 * 0.01 + s["dt"]  # 2L/c within 2h/c + Δt
     # Velocities swap: bar 1 leaves at −v0, bar 2 at +v0 (to the lost O(h/L) of energy: 1 %).

@@ -37,7 +37,7 @@ def test_cd_lagrange_wall_impact(shared_tmp, L, E, rho, v0, gap, ne, A) -> None:
 
     # One contact interval, no chatter, lasting 2L/c within 2h/c + Δt.
     assert s["contact_intervals"] == 1
-    (t_first, t_last), = s["contact_interval_times"]
+    ((t_first, t_last),) = s["contact_interval_times"]
     assert abs((t_last - t_first) - exact.duration) <= 2 * hel / c + dt
     assert abs(t_first - exact.t_contact) <= dt
 

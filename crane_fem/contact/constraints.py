@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -81,9 +82,9 @@ class ContactSet:
         # Terms sharing a DOF couple their rows; group terms by DOF on this rank.
         order = np.argsort(self.dofs, kind="stable")
         dofs, rows, coeffs = self.dofs[order], self.rows[order], self.coeffs[order]
-        starts = np.flatnonzero(np.r_[True, dofs[1:] != dofs[:-1]]) if dofs.size else []
-        bounds = [*list(starts), dofs.size]
-        for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        starts = np.flatnonzero(np.r_[True, dofs[1:] != dofs[:-1]]) if dofs.size else np.zeros(0)
+        bounds = [*(int(i) for i in starts), int(dofs.size)]
+        for a, b in itertools.pairwise(bounds):
             r, c = rows[a:b], coeffs[a:b]
             W[np.ix_(r, r)] += minv[dofs[a]] * np.outer(c, c)
         return self.comm.allreduce(W, op=MPI.SUM)

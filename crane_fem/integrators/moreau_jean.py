@@ -56,9 +56,9 @@ class MoreauJean(TimeIntegrator):
         self.A = model.K.copy()
         self.A.scale(th * th * h * h + th * h * model.beta)
         diag = model.create_vector((1.0 + th * h * model.alpha) * model.mass)
-        self.A.setDiagonal(diag, addv=PETSc.InsertMode.ADD_VALUES)
+        self.A.setDiagonal(diag, addv=True)  # addv=True: ADD_VALUES
         diag.destroy()
-        self.ksp = PETSc.KSP().create(model.comm)
+        self.ksp = PETSc.KSP().create(model.comm)  # type: ignore[arg-type]
         self.ksp.setOptionsPrefix("crane_fem_moreau_jean_")
         self.ksp.setOperators(self.A)
         self.ksp.setType("preonly")
@@ -99,8 +99,8 @@ class MoreauJean(TimeIntegrator):
     def _solve(self, rhs: FloatArray) -> FloatArray:
         self._rhs[:] = rhs
         self.ksp.solve(self._vecs["rhs"], self._vecs["sol"])
-        reason = self.ksp.getConvergedReason()
-        if reason < 0:
+        if self.ksp.is_diverged:
+            reason = self.ksp.getConvergedReason()
             raise RuntimeError(f"Moreau–Jean linear solve failed (KSP reason {reason})")
         return self._sol.copy()
 
