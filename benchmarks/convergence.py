@@ -18,8 +18,9 @@ import json
 import time
 from pathlib import Path
 
-import crane_fem  # noqa: F401  (MPI first)
 import matplotlib
+
+import crane_fem  # noqa: F401  (MPI first)
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -117,12 +118,14 @@ def main() -> None:
     (args.out / "convergence.json").write_text(json.dumps(results, indent=2))
 
     fig, axes = plt.subplots(1, 4, figsize=(18, 4.2))
-    keys = [("err_u", "displacement L2"), ("err_v", "velocity L2"),
-            ("err_energy", "energy after separation")]
+    keys = [
+        ("err_u", "displacement L2"),
+        ("err_v", "velocity L2"),
+        ("err_energy", "energy after separation"),
+    ]
     for ax, (key, title) in zip(axes[:3], keys, strict=True):
         for name, rows in results.items():
-            ax.loglog([r["dt"] for r in rows], [max(r[key], 1e-16) for r in rows], "o-",
-                      label=name)
+            ax.loglog([r["dt"] for r in rows], [max(r[key], 1e-16) for r in rows], "o-", label=name)
         ax.set_xlabel("Δt (h refined, Courant 0.5)")
         ax.set_title(f"relative error: {title}")
         ax.grid(True, which="both", alpha=0.3)
@@ -135,8 +138,10 @@ def main() -> None:
     fig.tight_layout()
     fig.savefig(args.out / "convergence.png", dpi=120)
 
-    print("| scheme | order u | order v | order energy | err u (finest) | err v (finest) "
-          "| energy err (finest) | wall s (finest) |")
+    print(
+        "| scheme | order u | order v | order energy | err u (finest) | err v (finest) "
+        "| energy err (finest) | wall s (finest) |"
+    )
     print("|---|---|---|---|---|---|---|---|")
     for name, rows in results.items():
         dts = [r["dt"] for r in rows]

@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import warnings
 
-import crane_fem  # noqa: F401  (MPI first)
 from mpi4py import MPI
 
+import crane_fem  # noqa: F401  (MPI first)
 from crane_fem.driver import run_scenario
 from crane_fem.errors import UnstableRunError
 from crane_fem.scenario import parse_scenario
@@ -66,20 +66,26 @@ def main() -> None:
 
     if rank0:
         print()
-        print("| penalty k (× EA/h) | Δt limit (× h/c) | contact intervals | KE after / KE before |")
+        print(
+            "| penalty k (× EA/h) | Δt limit (× h/c) | contact intervals | KE after / KE before |"
+        )
         print("|---|---|---|---|")
     for k in (0.1, 1.0, 10.0, 100.0, 1000.0):
         verdict, s = run({"scheme": "penalty", "penalty": 100.0 * k}, {"dt_factor": 0.9})
         if rank0 and verdict == "stable":
             hist = s["history"]
             ratio = hist["kinetic"][-1] / hist["kinetic"][0]
-            print(f"| {k:g} | {s['dt_critical_penalty'] / H_OVER_C:.3f} | "
-                  f"{s['contact_intervals']} | {ratio:.4f} |")
+            print(
+                f"| {k:g} | {s['dt_critical_penalty'] / H_OVER_C:.3f} | "
+                f"{s['contact_intervals']} | {ratio:.4f} |"
+            )
     verdict, s = run({"scheme": "cd-lagrange"}, {"dt_factor": 0.9})
     if rank0:
         hist = s["history"]
-        print(f"| CD-Lagrange (no k) | {s['dt_critical'] / H_OVER_C:.3f} | "
-              f"{s['contact_intervals']} | {hist['kinetic'][-1] / hist['kinetic'][0]:.4f} |")
+        print(
+            f"| CD-Lagrange (no k) | {s['dt_critical'] / H_OVER_C:.3f} | "
+            f"{s['contact_intervals']} | {hist['kinetic'][-1] / hist['kinetic'][0]:.4f} |"
+        )
 
 
 if __name__ == "__main__":

@@ -10,8 +10,9 @@
 # +
 from pathlib import Path
 
-import crane_fem  # noqa: F401  (MPI before dolfinx)
 import matplotlib
+
+import crane_fem  # noqa: F401  (MPI before dolfinx)
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -35,7 +36,7 @@ h, s = result.history, result.summary
 
 c = (sc.material.E / sc.material.rho) ** 0.5
 exact = WallImpact(sc.model.length, c, sc.initial.velocity, sc.contact[0].gap)
-(t_first, t_last), = s["contact_interval_times"]
+((t_first, t_last),) = s["contact_interval_times"]
 impulse = float(h["contact_force"].sum() * s["dt"])
 impulse_exact = 2 * sc.material.rho * sc.model.area * sc.model.length * abs(sc.initial.velocity)
 
@@ -49,8 +50,12 @@ if MPI.COMM_WORLD.rank == 0:
     ax1.set_ylabel("energy (J)")
     ax1.legend()
     ax2.plot(h["t"] * 1e3, h["contact_force"] / 1e3)
-    ax2.axhline(sc.material.rho * c * abs(sc.initial.velocity) * sc.model.area / 1e3, ls="--",
-                color="k", label="ρ c |v0| A")
+    ax2.axhline(
+        sc.material.rho * c * abs(sc.initial.velocity) * sc.model.area / 1e3,
+        ls="--",
+        color="k",
+        label="ρ c |v0| A",
+    )
     ax2.set_xlabel("t (ms)")
     ax2.set_ylabel("contact force (kN)")
     ax2.legend()
