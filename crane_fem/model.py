@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import dolfinx
 import dolfinx.fem.petsc
@@ -63,11 +64,9 @@ class StructuralModel:
         """A PETSc Vec that shares memory with the owned-DOF ``array`` (caller destroys)."""
         n_global = self.K.getSize()[0]
         # petsc4py stubs want a Sequence and a PETSc.Comm; an ndarray and an mpi4py comm work.
-        return PETSc.Vec().createWithArray(
-            array,
-            size=(array.size, n_global),
-            comm=self.comm,  # type: ignore[arg-type]
-        )
+        vec = PETSc.Vec()
+        args: dict[str, Any] = {"size": (array.size, n_global), "comm": self.comm}
+        return vec.createWithArray(array, **args)  # type: ignore[arg-type]
 
     def destroy(self) -> None:
         """Destroy the PETSc objects (collective)."""
