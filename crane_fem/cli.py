@@ -71,7 +71,10 @@ def main(argv: list[str] | None = None) -> int:
         outdir = args.output if args.output is not None else Path("out") / sc.name
         with warnings.catch_warnings():
             warnings.simplefilter("always")
-            warnings.formatwarning = lambda m, c, *a, **k: f"crane-fem: warning: {m}\n"
+            # Restored by catch_warnings on exit: one line per warning, on stderr.
+            warnings.showwarning = lambda m, *a, **k: print(
+                f"crane-fem: warning: {m}", file=sys.stderr
+            )
             result = run_scenario(sc, outdir, comm, progress=args.progress)
         s = result.summary
         if rank0:

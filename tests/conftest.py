@@ -1,6 +1,8 @@
 """Shared fixtures: MPI-safe temporary directories and scenario builders."""
 
 import copy
+import os
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +14,15 @@ from crane_fem.driver import RunResult, run_scenario
 from crane_fem.scenario import Scenario, parse_scenario
 
 COMM = MPI.COMM_WORLD
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Under mpiexec, give each rank its own pytest base temp dir (no cleanup races)."""
+    if COMM.size > 1 and not config.option.basetemp:
+        job = COMM.bcast(os.getpid(), root=0)
+        base = Path(tempfile.gettempdir()) / f"crane_fem_pytest_{job}" / f"rank{COMM.rank}"
+        base.parent.mkdir(parents=True, exist_ok=True)
+        config.option.basetemp = str(base)
 
 
 @pytest.fixture
