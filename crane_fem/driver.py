@@ -23,7 +23,7 @@ from crane_fem.problems import Problem, create_problem
 from crane_fem.scenario import Scenario
 from crane_fem.stability import EnergyGrowthMonitor, critical_time_step, max_frequency
 
-__all__ = ["RunResult", "Simulation", "run_scenario"]
+__all__ = ["RunResult", "Simulation", "run_coupled", "run_scenario"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -143,6 +143,8 @@ def run_scenario(
             summary records the diagnosis.
     """
     comm = MPI.COMM_WORLD if comm is None else comm
+    if sc.coupled_path:
+        return run_coupled(sc, outdir, comm, progress)
     out = Path(outdir)
     t_wall = time.perf_counter()
     sim = Simulation(sc, comm)
@@ -253,3 +255,164 @@ def run_scenario(
         comm.barrier()
     arrays = {c: np.asarray(v, dtype=np.float64) for c, v in history.items()}
     return RunResult(summary, arrays)
+
+
+def _probe_sums(sub, values: FloatArray, vertices, exclude) -> tuple[FloatArray, int]:  # type: ignore[no-untyped-def]
+    """Local sums of ``values`` (owned DOFs) per component over probe vertices."""
+    blocks, _ = sub.owned_dofs_of(np.setdiff1d(vertices, exclude))
+    bs = sub.bs
+    vals = values.reshape(-1, bs)[blocks]
+    return vals.sum(axis=0), int(blocks.size)
+
+
+def run_coupled(
+    sc: Scenario, outdir: str | Path, comm: MPI.Comm | None = None, progress: bool | None = None
+) -> RunResult:
+    """Run a scenario with subdomains (GC/PH coupling or monolithic reference); outputs as
+    :func:`run_scenario` plus ``interface_*`` columns and one XDMF file per subdomain.
+
+    Collective over ``comm``.
+    """
+    from crane_fem.coupled import CoupledSimulation
+    from crane_fem.coupling.gravouil_combescure import ENERGY_KEYS
+
+    comm = MPI.COMM_WORLD if comm is None else comm
+    out = Path(outdir)
+    t_wall = time.perf_counter()
+    sim = CoupledSimulation(sc, comm)
+    integ = sim.integrator
+    groups_c = sim.contacts.group_names
+    bs = (sim.E_sub or sim.I_sub).bs  # type: ignore[union-attr]
+    probe = sim.probe_vertices()
+    columns = ["t", *ENERGY_KEYS, "total", "kinetic_explicit", "internal_explicit",
+               "kinetic_implicit", "internal_implicit", "contact_force", "active_contacts"]
+    columns += [f"gap_{g}" for g in groups_c] + [f"force_{g}" for g in groups_c]
+    columns += [f"probe_u{c}" for c in range(bs)] + [f"probe_v{c}" for c in range(bs)]
+    columns += ["interface_force_norm", "interface_velocity_jump"]
+    history: dict[str, list[float]] = {c: [] for c in columns}
+    show = progress if progress is not None else sc.output.progress
+    show_bar = comm.rank == 0 and (sys.stderr.isatty() if show == "auto" else bool(show))
+    every = sc.output.every
+    xdmf_every = sc.output.xdmf_every or max(1, sim.n_macro // 200)
+    summary: dict[str, Any] = {
+        "scenario": sc.name,
+        "method": sim.method,
+        "ratio": sim.ratio,
+        "explicit_subdomains": sim.explicit_names,
+        "implicit_subdomains": sim.implicit_names,
+        "dt": sim.dt,
+        "dT": sim.dT,
+        "dt_critical": sim.dt_critical,
+        "steps": sim.n_macro,
+        "micro_steps": sim.n_macro * (integ.m if integ.coupled else 1),
+        "interface_dofs": int(sim.interface_vertices.size * bs),
+        "mpi_size": comm.size,
+        "status": "running",
+    }
+    writers = []
+    if sc.output.xdmf:
+        for sub in (sim.E_sub, sim.I_sub):
+            if sub is not None:
+                writers.append((sub, XDMFSeries(out / f"solution_{sub.name.replace('+', '_')}.xdmf",
+                                                sub.V, ["displacement", "velocity"])))
+    bar = tqdm(total=sim.n_macro, disable=not show_bar, delay=2.0, mininterval=0.5,
+               unit="macro step", desc=sc.name)
+    micro: list[tuple[float, bool]] = []
+    total0: float | None = None
+    scale = max_drift = 0.0
+    ifd_min_step = math.inf
+    ifd_prev = 0.0
+    try:
+        with HistoryWriter(out / "history.csv", columns, comm) as writer:
+            rec = integ.initialize()
+            n = 0
+            while True:
+                e = rec.energy
+                if not all(math.isfinite(v) for v in e.values()):
+                    raise UnstableRunError(
+                        f"unstable run: non-finite energy at macro step {rec.step} "
+                        f"(t = {rec.t:.6g} s); Δt = {sim.dt:.4e} s, critical "
+                        f"{sim.dt_critical:.4e} s")
+                if total0 is None:
+                    total0 = e["total"]
+                scale = max(scale, abs(e["kinetic"]) + abs(e["internal"])
+                            + abs(e["external_work"]))
+                max_drift = max(max_drift, abs(e["total"] - total0))
+                step_ifd = e["interface_energy_gc"] - ifd_prev
+                if rec.step > 0:
+                    ifd_min_step = min(ifd_min_step, step_ifd)
+                ifd_prev = e["interface_energy_gc"]
+                micro.extend(rec.micro)
+                if rec.step % every == 0 or rec.step == sim.n_macro:
+                    row: dict[str, float] = {"t": rec.t}
+                    row.update({k: e[k] for k in columns if k in e})
+                    force = rec.contact_impulse / sim.dt
+                    row["contact_force"] = float(force.sum())
+                    row["active_contacts"] = float(np.count_nonzero(force > 0))
+                    gmin = sim.contacts.group_mins(rec.gaps) if groups_c else []
+                    gsum = sim.contacts.group_sums(force) if groups_c else []
+                    for i, g in enumerate(groups_c):
+                        row[f"gap_{g}"] = float(gmin[i])
+                        row[f"force_{g}"] = float(gsum[i])
+                    su = np.zeros(bs)
+                    sv = np.zeros(bs)
+                    cnt = 0
+                    if sim.E_sub is not None:
+                        a, k = _probe_sums(sim.E_sub, rec.explicit_u, probe, np.zeros(0))
+                        b, _ = _probe_sums(sim.E_sub, rec.explicit_v, probe, np.zeros(0))
+                        su, sv, cnt = su + a, sv + b, cnt + k
+                    if sim.I_sub is not None:
+                        excl = sim.interface_vertices if sim.E_sub is not None else np.zeros(0)
+                        a, k = _probe_sums(sim.I_sub, rec.implicit_u, probe, excl)
+                        b, _ = _probe_sums(sim.I_sub, rec.implicit_v, probe, excl)
+                        su, sv, cnt = su + a, sv + b, cnt + k
+                    tot = comm.allreduce(np.r_[su, sv, cnt], op=MPI.SUM)
+                    for c in range(bs):
+                        row[f"probe_u{c}"] = float(tot[c] / max(tot[-1], 1))
+                        row[f"probe_v{c}"] = float(tot[bs + c] / max(tot[-1], 1))
+                    row["interface_force_norm"] = float(np.linalg.norm(rec.interface_impulse))
+                    jump = 0.0
+                    if integ.coupled and sim.E_int is not None and integ.LI is not None:
+                        n_g = integ.n_gamma
+                        jump = float(np.max(np.abs(
+                            sim.E_int.stack.apply(sim.E_int.v_int)[:n_g]
+                            + integ.LI.apply(rec.implicit_v)[:n_g]), initial=0.0))
+                    row["interface_velocity_jump"] = jump
+                    writer.write(row)
+                    for c in columns:
+                        history[c].append(row[c])
+                if writers and (rec.step % xdmf_every == 0 or rec.step == sim.n_macro):
+                    for sub, w in writers:
+                        is_e = sub is sim.E_sub
+                        w.write(rec.t, {
+                            "displacement": rec.explicit_u if is_e else rec.implicit_u,
+                            "velocity": rec.explicit_v if is_e else rec.implicit_v,
+                        })
+                if n == sim.n_macro:
+                    break
+                rec = integ.step()
+                n += 1
+                bar.update(1)
+        summary["status"] = "completed"
+    except UnstableRunError as exc:
+        summary["status"] = "unstable"
+        summary["diagnosis"] = str(exc)
+        raise
+    finally:
+        bar.close()
+        for _, w in writers:
+            w.close()
+        intervals = _contact_intervals([t for t, _ in micro], [a for _, a in micro])
+        summary.update({
+            "steps_done": len(history["t"]) and int(round(history["t"][-1] / sim.dT)),
+            "wall_time_s": comm.allreduce(time.perf_counter() - t_wall, op=MPI.MAX),
+            "energy_balance_error": max_drift / scale if scale > 0 else 0.0,
+            "energy_balance_error_abs": max_drift,
+            "interface_energy_gc_min_step": ifd_min_step if math.isfinite(ifd_min_step) else 0.0,
+            "contact_intervals": len(intervals),
+            "contact_interval_times": intervals[:100],
+        })
+        write_summary(out / "summary.json", summary, comm)
+        sim.destroy()
+        comm.barrier()
+    return RunResult(summary, {c: np.asarray(v, dtype=np.float64) for c, v in history.items()})

@@ -14,7 +14,7 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
-__all__ = ["StructuralModel", "assemble_bar_operators"]
+__all__ = ["StructuralModel", "assemble_bar_operators", "assemble_structure"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -33,6 +33,7 @@ class StructuralModel:
         mass: row-sum lumped mass, kg (ghost contributions accumulated before use).
         fixed: True on clamped DOFs.
         alpha, beta: Rayleigh coefficients, C = alpha M + beta K.
+        M: consistent mass (rows/columns of fixed DOFs zeroed) or None; owned by the model.
     """
 
     V: dolfinx.fem.FunctionSpace
@@ -41,6 +42,7 @@ class StructuralModel:
     fixed: npt.NDArray[np.bool_]
     alpha: float = 0.0
     beta: float = 0.0
+    M: PETSc.Mat | None = None
     minv: FloatArray = field(init=False)
 
     def __post_init__(self) -> None:
@@ -71,6 +73,8 @@ class StructuralModel:
     def destroy(self) -> None:
         """Destroy the PETSc objects (collective)."""
         self.K.destroy()
+        if self.M is not None:
+            self.M.destroy()
 
 
 def _lumped(vec: PETSc.Vec) -> FloatArray:
@@ -109,3 +113,56 @@ def assemble_bar_operators(
 
 
 LoadFunction = Callable[[float], FloatArray]
+
+
+def assemble_structure(
+    V: dolfinx.fem.FunctionSpace,
+    E: float,
+    nu: float,
+    rho: float,
+    area: dolfinx.fem.Function | float,
+    fixed_dofs: npt.NDArray[np.int32],
+    consistent_mass: bool = False,
+) -> tuple[PETSc.Mat, FloatArray, PETSc.Mat | None]:
+    """Stiffness, row-sum lumped mass and (optionally) consistent mass of a linear structure.
+
+    A scalar space is an axial bar (∫ E A u' w' dx, mass ρ A); a vector space is 3D linear
+    elasticity (E, ν; mass ρ). Fixed DOFs (local, owned and ghost) get zero rows/columns, unit
+    diagonal in K and M. Collective over the mesh communicator.
+
+    Returns:
+        ``(K, lumped, M)``: the caller owns ``K`` and ``M``; ``lumped`` holds owned DOFs only.
+    """
+    u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
+    dx = ufl.dx(domain=V.mesh)
+    if V.value_size == 1:
+        k = E * area * ufl.inner(ufl.grad(u), ufl.grad(w)) * dx
+        m = rho * area * ufl.inner(u, w) * dx
+        m_row = rho * area * w * dx
+        zero = dolfinx.fem.Constant(V.mesh, np.float64(0.0))
+    else:
+        mu = E / (2.0 * (1.0 + nu))
+        lmbda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+
+        def eps(z: ufl.Argument) -> ufl.core.expr.Expr:
+            return ufl.sym(ufl.grad(z))
+
+        def sigma(z: ufl.Argument) -> ufl.core.expr.Expr:
+            return 2.0 * mu * eps(z) + lmbda * ufl.tr(eps(z)) * ufl.Identity(len(z))
+
+        k = ufl.inner(sigma(u), eps(w)) * dx
+        m = rho * ufl.inner(u, w) * dx
+        ones = ufl.as_vector([1.0] * V.value_size)
+        m_row = rho * ufl.inner(ones, w) * dx
+        zero = dolfinx.fem.Constant(V.mesh, np.zeros(V.value_size, dtype=np.float64))
+    bcs = [dolfinx.fem.dirichletbc(zero, fixed_dofs, V)]
+    K = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(k), bcs=bcs, diag=1.0)
+    K.assemble()
+    mvec = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(m_row))
+    lumped = _lumped(mvec)
+    mvec.destroy()
+    M = None
+    if consistent_mass:
+        M = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(m), bcs=bcs, diag=1.0)
+        M.assemble()
+    return K, lumped, M

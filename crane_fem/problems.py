@@ -13,7 +13,7 @@ from mpi4py import MPI
 from crane_fem.contact import ContactSet
 from crane_fem.mesh import BarMesh, Segment, create_bar_mesh
 from crane_fem.model import LoadFunction, StructuralModel, assemble_bar_operators
-from crane_fem.scenario import Scenario
+from crane_fem.scenario import BarModel, Scenario
 
 __all__ = ["Body", "Problem", "create_problem"]
 
@@ -60,6 +60,7 @@ def _input_node_of_dof(bar: BarMesh, V: dolfinx.fem.FunctionSpace) -> npt.NDArra
 def create_problem(comm: MPI.Comm, sc: Scenario) -> Problem:
     """Build the bar problem of a validated scenario (collective over ``comm``)."""
     mdl = sc.model
+    assert isinstance(mdl, BarModel), "the single-scheme path handles bars only"
     contacts = {c.type: c for c in sc.contact}
     x0 = contacts["wall"].gap if "wall" in contacts else 0.0
     segments = [Segment(x0, mdl.length, mdl.elements, mdl.area)]

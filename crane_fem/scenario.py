@@ -48,7 +48,10 @@ class SecondBar(_Section):
 
 
 class BarModel(_Section):
-    """1D bar along x (dolfinx interval mesh, P1); its left end faces the wall at x = 0."""
+    """1D bar along x (dolfinx interval mesh, P1); its left end faces the wall at x = 0.
+
+    ``split`` (distance from the left end, on a node) tags the cells ``left``/``right``.
+    """
 
     kind: Literal["bar"]
     length: PositiveFloat
@@ -56,6 +59,46 @@ class BarModel(_Section):
     area: PositiveFloat = 1.0
     clamp: Literal["none", "right"] = "none"
     second_bar: SecondBar | None = None
+    split: PositiveFloat | None = None
+
+    @model_validator(mode="after")
+    def _split_on_node(self) -> BarModel:
+        if self.split is not None:
+            k = self.split / self.length * self.elements
+            if not 0 < self.split < self.length or abs(k - round(k)) > 1e-9:
+                raise ValueError(
+                    f"model.split = {self.split} must lie strictly inside the bar on a node "
+                    f"(a multiple of length/elements = {self.length / self.elements:g})"
+                )
+        return self
+
+    @property
+    def groups(self) -> list[str]:
+        return ["left", "right"] if self.split is not None else []
+
+
+class BoxBeamModel(_Section):
+    """3D box beam [0, L]×[0, W]×[0, H] (gmsh, two volumes split at x = ``split``), clamped at
+    x = 0; cell groups ``part_a`` (x < split) and ``part_b``; tetrahedra of size ``h``."""
+
+    kind: Literal["box_beam"]
+    length: PositiveFloat
+    width: PositiveFloat
+    height: PositiveFloat
+    split: PositiveFloat
+    h: PositiveFloat
+
+    @model_validator(mode="after")
+    def _inside(self) -> BoxBeamModel:
+        if not self.split < self.length:
+            raise ValueError(f"model.split = {self.split} must be < model.length = {self.length}")
+        if self.h > min(self.width, self.height, self.split, self.length - self.split):
+            raise ValueError(f"model.h = {self.h} is larger than a side of the beam parts")
+        return self
+
+    @property
+    def groups(self) -> list[str]:
+        return ["part_a", "part_b"]
 
 
 class Material(_Section):
@@ -63,14 +106,25 @@ class Material(_Section):
 
     E: PositiveFloat
     rho: PositiveFloat
+    nu: Annotated[float, Field(ge=0.0, lt=0.5)] = 0.3
     rayleigh: NonNegativePair = [0.0, 0.0]
 
 
+class Pulse(_Section):
+    """Right-travelling cos² displacement pulse u = a cos²(π (X − center)/width), v = −c u'."""
+
+    center: float
+    width: PositiveFloat
+    amplitude: float
+
+
 class Initial(_Section):
-    """Initial state of the first bar: uniform velocity, linear displacement [left, right]."""
+    """Initial state of the first bar: uniform velocity, linear displacement [left, right],
+    optionally a travelling pulse on top."""
 
     velocity: float = 0.0
     displacement: Pair = [0.0, 0.0]
+    pulse: Pulse | None = None
 
 
 class Contact(_Section):
@@ -126,10 +180,43 @@ class Integrator(_Section):
         return 0.5 if self.theta is None else self.theta
 
 
+class TipTraction(_Section):
+    """Half-sine traction pulse t(s) = traction sin(π s / duration) on the beam's tip face."""
+
+    traction: Vector3
+    duration: PositiveFloat
+
+
 class Loading(_Section):
     """Body loads: gravity acceleration vector (m/s²); a bar uses its x component."""
 
     gravity: Vector3 = [0.0, 0.0, 0.0]
+    tip_traction: TipTraction | None = None
+
+
+class SubdomainSpec(_Section):
+    """A subdomain: named cell groups integrated with one scheme."""
+
+    name: str
+    groups: Annotated[list[str], Field(min_length=1)]
+    scheme: Literal["cd-lagrange", "newmark"]
+
+
+class Coupling(_Section):
+    """How subdomains are integrated: GC or PH coupling with ΔT = ratio × Δt, or the whole
+    mesh as one subdomain with ``scheme`` (the monolithic reference)."""
+
+    method: Literal["gc", "ph", "monolithic"] = "gc"
+    ratio: PositiveInt = 1
+    scheme: Literal["cd-lagrange", "newmark"] | None = None
+
+
+class NewmarkParams(_Section):
+    """Newmark β, γ (average acceleration by default) and the implicit mass matrix."""
+
+    beta: Annotated[float, Field(ge=0.0)] = 0.25
+    gamma: Annotated[float, Field(ge=0.5)] = 0.5
+    mass: Literal["consistent", "lumped"] = "consistent"
 
 
 class Output(_Section):
@@ -152,7 +239,7 @@ class Scenario(_Section):
     """A whole scenario file."""
 
     name: str = "scenario"
-    model: BarModel
+    model: Annotated[BarModel | BoxBeamModel, Field(discriminator="kind")]
     material: Material
     initial: Initial = Initial()
     contact: list[Contact] = []
@@ -161,9 +248,76 @@ class Scenario(_Section):
     loading: Loading = Loading()
     output: Output = Output()
     monitor: Monitor = Monitor()
+    subdomain: list[SubdomainSpec] = []
+    coupling: Coupling | None = None
+    newmark: NewmarkParams = NewmarkParams()
+
+    @property
+    def coupled_path(self) -> bool:
+        """Run through subdomains (coupled or monolithic reference) rather than the bar path."""
+        return bool(self.subdomain) or self.coupling is not None
+
+    @model_validator(mode="after")
+    def _subdomains(self) -> Scenario:
+        mdl = self.model
+        if isinstance(mdl, BoxBeamModel):
+            if not self.coupled_path:
+                raise ValueError(
+                    "model.kind 'box_beam' needs [[subdomain]] entries or "
+                    "[coupling] method = 'monolithic'"
+                )
+            if self.contact:
+                raise ValueError("contact: not available on model.kind 'box_beam'")
+        elif self.loading.tip_traction is not None:
+            raise ValueError("loading.tip_traction applies to model.kind 'box_beam' only")
+        cpl = self.coupling
+        if cpl is not None and cpl.method == "monolithic":
+            if cpl.scheme is None:
+                raise ValueError("coupling.scheme is required by method 'monolithic'")
+            if cpl.scheme == "newmark" and self.contact:
+                raise ValueError("contact needs an explicit subdomain: coupling.scheme = "
+                                 "'newmark' cannot carry [[contact]]")
+            return self
+        if cpl is not None and cpl.scheme is not None:
+            raise ValueError("coupling.scheme applies to method 'monolithic' only")
+        if not self.subdomain:
+            if cpl is not None:
+                raise ValueError(f"coupling method {cpl.method!r} needs [[subdomain]] entries")
+            return self
+        allowed = mdl.groups
+        if not allowed:
+            raise ValueError("subdomain: model.split is required to name the bar's groups")
+        seen: list[str] = []
+        for i, sd in enumerate(self.subdomain):
+            for g in sd.groups:
+                if g not in allowed:
+                    raise ValueError(
+                        f"subdomain[{i}].groups: unknown group {g!r}; allowed: "
+                        + ", ".join(allowed)
+                    )
+                if g in seen:
+                    raise ValueError(f"subdomain[{i}].groups: group {g!r} is in two subdomains")
+                seen.append(g)
+        missing = sorted(set(allowed) - set(seen))
+        if missing:
+            raise ValueError(f"subdomain: groups {missing} belong to no subdomain")
+        implicit = [sd for sd in self.subdomain if sd.scheme == "newmark"]
+        if len(implicit) > 1 and cpl is None:
+            raise ValueError("two implicit (newmark) subdomains without a [coupling]")
+        if len(implicit) > 1:
+            raise ValueError("at most one newmark subdomain is supported")
+        explicit = [sd for sd in self.subdomain if sd.scheme == "cd-lagrange"]
+        if implicit and explicit and cpl is None:
+            raise ValueError("explicit and implicit subdomains need a [coupling] section")
+        if self.integrator.scheme != "cd-lagrange":
+            raise ValueError("integrator.scheme: with [[subdomain]] the scheme is given per "
+                             "subdomain")
+        return self
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
+        if not isinstance(self.model, BarModel):
+            return self
         types = [c.type for c in self.contact]
         for t in ("wall", "bars"):
             if types.count(t) > 1:
@@ -184,11 +338,17 @@ class Scenario(_Section):
         return self
 
 
+MODEL_KINDS = {"bar": BarModel, "box_beam": BoxBeamModel}
+
+
 def _allowed_keys(section: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
     """Keys allowed at the parent of ``loc`` (for 'unknown key' messages)."""
     model: Any = section
     for part in loc[:-1]:
         if isinstance(part, int):
+            continue
+        if part in MODEL_KINDS:
+            model = MODEL_KINDS[part]
             continue
         field = model.model_fields.get(part)
         if field is None:
@@ -212,11 +372,18 @@ def _format_error(source: str, exc: ValidationError) -> str:
     # An unknown key is usually the root cause (a typo that also leaves a key missing).
     errors = sorted(exc.errors(), key=lambda e: e["type"] != "extra_forbidden")
     err = errors[0]
-    loc = tuple(err["loc"])
+    # Drop the discriminator tag pydantic inserts after "model" (model.bar.length -> model.length).
+    raw = tuple(err["loc"])
+    loc = tuple(p for i, p in enumerate(raw) if not (i > 0 and raw[i - 1] == "model"
+                                                       and p in MODEL_KINDS))
     path = ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in loc).replace(".[", "[")
     kind = err["type"]
-    if kind == "extra_forbidden":
-        allowed = ", ".join(_allowed_keys(Scenario, loc))
+    if kind == "union_tag_invalid":
+        path = f"{path}.kind"
+        kinds = ", ".join(repr(k) for k in MODEL_KINDS)
+        msg = f"unknown kind {err['input'].get('kind')!r}; allowed: {kinds}"
+    elif kind == "extra_forbidden":
+        allowed = ", ".join(_allowed_keys(Scenario, raw))
         msg = f"unknown key; allowed here: {allowed}"
     elif kind == "missing":
         msg = "required key is missing"

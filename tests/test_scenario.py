@@ -39,7 +39,7 @@ def _write(tmp_path: Path, text: str) -> Path:
 
 # (replace this, with that, expected fragments of the message)
 BAD = [
-    ("E = 1.0", "Young = 1.0", ["material.Young", "unknown key", "allowed here: E, rayleigh, rho"]),
+    ("E = 1.0", "Young = 1.0", ["material.Young", "unknown key", "allowed here: E, nu, rayleigh, rho"]),
     ("E = 1.0", 'E = "steel"', ["material.E", "valid number", "'steel'"]),
     ("E = 1.0", "E = -2.0", ["material.E", "greater than 0", "-2.0"]),
     ("E = 1.0", "E = true", ["material.E", "valid number"]),
@@ -67,7 +67,7 @@ BAD = [
     ),
     ("gap = 0.1", "gap = -0.1", ["contact[0].gap", "greater than or equal to 0"]),
     ('type = "wall"', 'type = "bars"', ["contact type 'bars' and [model.second_bar]"]),
-    ('kind = "bar"', 'kind = "beam"', ["model.kind", "'bar'", "'beam'"]),
+    ('kind = "bar"', 'kind = "beam"', ["model.kind", "unknown kind 'beam'", "'bar', 'box_beam'"]),
     ("elements = 10", "elements = 10.5", ["model.elements", "valid integer"]),
     ("elements = 10", "elements = 0", ["model.elements", "greater than 0"]),
     (

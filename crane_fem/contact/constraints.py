@@ -103,3 +103,16 @@ class ContactSet:
     def empty(cls, comm: MPI.Comm) -> ContactSet:
         z = np.zeros(0, dtype=np.int64)
         return cls(comm, np.zeros(0), z, z.copy(), np.zeros(0), z.copy(), [])
+
+    @classmethod
+    def stack(cls, first: ContactSet, second: ContactSet) -> ContactSet:
+        """Rows of ``first`` then rows of ``second`` (same communicator)."""
+        return cls(
+            first.comm,
+            np.concatenate([first.g0, second.g0]),
+            np.concatenate([first.rows, second.rows + first.p]),
+            np.concatenate([first.dofs, second.dofs]),
+            np.concatenate([first.coeffs, second.coeffs]),
+            np.concatenate([first.group, second.group + len(first.group_names)]),
+            [*first.group_names, *second.group_names],
+        )

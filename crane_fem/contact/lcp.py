@@ -7,7 +7,7 @@ import numpy.typing as npt
 import scipy.linalg
 import scipy.optimize
 
-__all__ = ["solve_lcp"]
+__all__ = ["solve_lcp", "solve_mixed_lcp"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -49,3 +49,34 @@ def solve_lcp(
     sol, _ = scipy.optimize.nnls(R, b)
     lam[idx] = sol
     return lam
+
+
+def solve_mixed_lcp(
+    A: FloatArray, q: FloatArray, n_eq: int, active: npt.NDArray[np.bool_]
+) -> FloatArray:
+    """Solve A z + q = 0 on the first ``n_eq`` rows (z free) and 0 ≤ z ⟂ A z + q ≥ 0 on the
+    ``active`` remaining rows (z = 0 on inactive ones), A symmetric positive definite.
+
+    The free block is eliminated exactly (Cholesky); the Schur complement, symmetric positive
+    definite, gives a plain LCP solved by :func:`solve_lcp`. Not collective.
+    """
+    z = np.zeros_like(q)
+    c = n_eq + np.flatnonzero(active)
+    if n_eq == 0:
+        sub = A[np.ix_(c, c)]
+        diag = bool(np.all(sub == np.diag(np.diag(sub))))
+        z[c] = solve_lcp(sub, q[c], np.ones(c.size, dtype=bool), diag)
+        return z
+    e = np.arange(n_eq)
+    factor = scipy.linalg.cho_factor(A[np.ix_(e, e)])
+    if c.size:
+        Aec = A[np.ix_(e, c)]
+        Y = scipy.linalg.cho_solve(factor, Aec)
+        S = A[np.ix_(c, c)] - Aec.T @ Y
+        S = 0.5 * (S + S.T)
+        qs = q[c] - Y.T @ q[e]
+        z[c] = solve_lcp(S, qs, np.ones(c.size, dtype=bool), diagonal=False)
+        z[e] = -scipy.linalg.cho_solve(factor, q[e] + Aec @ z[c])
+    else:
+        z[e] = -scipy.linalg.cho_solve(factor, q[e])
+    return z

@@ -1,0 +1,282 @@
+"""Scenario -> subdomains on a tagged mesh -> coupled (or monolithic-reference) integrator."""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import dolfinx
+import dolfinx.fem.petsc
+import dolfinx.mesh
+import numpy as np
+import numpy.typing as npt
+import ufl
+from mpi4py import MPI
+
+from crane_fem.contact import ContactSet
+from crane_fem.coupling.gravouil_combescure import CoupledIntegrator, ExplicitCD
+from crane_fem.coupling.interface import build_interface, constraint_set
+from crane_fem.errors import ScenarioError
+from crane_fem.geometry import TaggedMesh, create_box_beam, create_split_bar, groups
+from crane_fem.geometry.box_beam import BoxBeam
+from crane_fem.integrators.newmark import Newmark
+from crane_fem.mesh import Segment
+from crane_fem.model import LoadFunction
+from crane_fem.scenario import BarModel, BoxBeamModel, Scenario
+from crane_fem.stability import critical_time_step, max_frequency
+from crane_fem.subdomains import Subdomain, create_subdomain, global_ids
+
+__all__ = ["CoupledSimulation", "create_tagged_mesh"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh:
+    """The parent mesh of the scenario with its named groups (collective)."""
+    mdl = sc.model
+    if isinstance(mdl, BoxBeamModel):
+        return create_box_beam(
+            comm, BoxBeam(mdl.length, mdl.width, mdl.height, mdl.split, mdl.h)
+        )
+    assert isinstance(mdl, BarModel)
+    x0 = next((c.gap for c in sc.contact if c.type == "wall"), 0.0)
+    split = mdl.split if mdl.split is not None else mdl.length  # all cells "left"
+    return create_split_bar(comm, Segment(x0, mdl.length, mdl.elements, mdl.area), split)
+
+
+def _cells_of(tagged: TaggedMesh, names: list[str]) -> npt.NDArray[np.int32]:
+    return tagged.cells(names)
+
+
+@dataclass
+class _Spec:
+    name: str
+    scheme: str
+    groups: list[str]
+
+
+def _facet_traction_load(
+    sub: Subdomain, tip_vertices: npt.NDArray[np.int64], traction: list[float]
+) -> FloatArray:
+    """Owned nodal forces of a unit-time traction on the submesh facets whose vertices all
+    lie in ``tip_vertices`` (global parent ids); zero if the subdomain has no such facet."""
+    msh = sub.submesh
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    msh.topology.create_connectivity(tdim - 1, 0)
+    facets = dolfinx.mesh.exterior_facet_indices(msh.topology)
+    f2v = msh.topology.connectivity(tdim - 1, 0)
+    on_tip = [f for f in facets if np.all(np.isin(sub.vertex_global[f2v.links(f)],
+                                                  tip_vertices))]
+    idx = np.asarray(on_tip, dtype=np.int32)
+    mt = dolfinx.mesh.meshtags(msh, tdim - 1, idx, np.ones(idx.size, dtype=np.int32))
+    ds = ufl.Measure("ds", domain=msh, subdomain_data=mt)
+    w = ufl.TestFunction(sub.V)
+    t = dolfinx.fem.Constant(msh, np.asarray(traction, dtype=np.float64))
+    vec = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(ufl.inner(t, w) * ds(1)))
+    vec.ghostUpdate(addv=True, mode="reverse")  # addv=True: ADD_VALUES
+    out = np.array(vec.array_r, dtype=np.float64)
+    vec.destroy()
+    out[sub.model.fixed] = 0.0
+    return out
+
+
+class CoupledSimulation:
+    """Subdomains, interface, contacts, loads and the coupled integrator of a scenario.
+
+    Collective over ``comm``; ``destroy`` releases everything.
+
+    Attributes:
+        dt, dT: micro and macro steps (s); dt_critical: critical step of the explicit side.
+        n_macro: number of macro steps.
+    """
+
+    def __init__(self, sc: Scenario, comm: MPI.Comm) -> None:
+        self.scenario = sc
+        self.comm = comm
+        self.tagged = create_tagged_mesh(comm, sc)
+        mdl, mat = sc.model, sc.material
+        cpl = sc.coupling
+        all_groups = list(self.tagged.cell_groups)
+        if cpl is not None and cpl.method == "monolithic":
+            assert cpl.scheme is not None
+            specs = [_Spec("all", cpl.scheme, all_groups)]
+            method, ratio = "monolithic", 1
+        else:
+            specs = [_Spec(s.name, s.scheme, list(s.groups)) for s in sc.subdomain]
+            method = cpl.method if cpl is not None else "monolithic"
+            ratio = cpl.ratio if cpl is not None else 1
+        self.method, self.ratio = method, ratio
+
+        # Clamped vertices (global parent ids).
+        if isinstance(mdl, BoxBeamModel):
+            clamp_local = self.tagged.facet_vertices(groups.BEAM_CLAMPED)
+        elif mdl.clamp == "right":
+            clamp_local = self.tagged.facet_vertices(groups.BAR_RIGHT_END)
+        else:
+            clamp_local = np.zeros(0, dtype=np.int32)
+        fixed = self.tagged.global_vertices(clamp_local)
+        area = mdl.area if isinstance(mdl, BarModel) else 1.0
+        rayleigh = (mat.rayleigh[0], mat.rayleigh[1])
+
+        explicit_specs = [s for s in specs if s.scheme == "cd-lagrange"]
+        implicit_specs = [s for s in specs if s.scheme == "newmark"]
+        self.explicit_names = [s.name for s in explicit_specs]
+        self.implicit_names = [s.name for s in implicit_specs]
+        self.E_sub: Subdomain | None = None
+        self.I_sub: Subdomain | None = None
+        if explicit_specs:
+            names = [g for s in explicit_specs for g in s.groups]
+            self.E_sub = create_subdomain(
+                self.tagged, "+".join(self.explicit_names), "cd-lagrange",
+                _cells_of(self.tagged, names), mat.E, mat.nu, mat.rho, area, rayleigh, fixed,
+                consistent_mass=False,
+            )
+        if implicit_specs:
+            nm = sc.newmark
+            self.I_sub = create_subdomain(
+                self.tagged, implicit_specs[0].name, "newmark",
+                _cells_of(self.tagged, implicit_specs[0].groups), mat.E, mat.nu, mat.rho, area,
+                rayleigh, fixed, consistent_mass=nm.mass == "consistent",
+            )
+
+        # Step sizes: Δt from the explicit subdomain's own critical step.
+        self.dt_critical = math.inf
+        if self.E_sub is not None:
+            om = max_frequency(self.E_sub.model)
+            self.dt_critical = critical_time_step(om, *rayleigh)
+        else:
+            # Monolithic Newmark: dt_factor refers to the explicit limit of the same mesh.
+            assert self.I_sub is not None
+            om = max_frequency(self.I_sub.model)
+            self.dt_critical = critical_time_step(om, *rayleigh)
+        if sc.time.dt is not None:
+            self.dt = sc.time.dt
+            if self.E_sub is not None and self.dt > self.dt_critical:
+                raise ScenarioError(
+                    f"time.dt = {self.dt:.4e} s exceeds the critical step "
+                    f"{self.dt_critical:.4e} s of explicit subdomain '{self.E_sub.name}'"
+                )
+        else:
+            assert sc.time.dt_factor is not None
+            if self.E_sub is not None and sc.time.dt_factor > 1.0:
+                raise ScenarioError(
+                    f"time.dt_factor = {sc.time.dt_factor} > 1 puts Δt above the critical step "
+                    f"of explicit subdomain '{self.E_sub.name}'"
+                )
+            self.dt = sc.time.dt_factor * self.dt_critical
+        coupled = self.E_sub is not None and self.I_sub is not None
+        self.dT = self.dt * (ratio if coupled else 1)
+        self.n_macro = max(1, math.ceil(sc.time.end / self.dT - 1e-9))
+
+        # Interface.
+        vertices = np.zeros(0, dtype=np.int64)
+        le = ContactSet.empty(comm)
+        li = ContactSet.empty(comm)
+        if coupled:
+            assert self.E_sub is not None and self.I_sub is not None
+            vertices, le, li = build_interface(self.E_sub, self.I_sub)
+            if vertices.size == 0:
+                raise ScenarioError("subdomain: the explicit and implicit subdomains do not touch")
+        self.interface_vertices = vertices
+
+        # Contacts (explicit side), initial state and loads.
+        contacts = ContactSet.empty(comm)
+        if sc.contact:
+            if self.E_sub is None:
+                raise ScenarioError("contact: needs an explicit (cd-lagrange) subdomain")
+            contacts = self._wall_contacts(self.E_sub)
+        self.contacts = contacts
+
+        self.E_int: ExplicitCD | None = None
+        self.I_int: Newmark | None = None
+        if self.E_sub is not None:
+            u0, v0 = self._initial(self.E_sub)
+            self.E_int = ExplicitCD(self.E_sub.model, self._load(self.E_sub), self.dt, u0, v0,
+                                    le, contacts)
+        if self.I_sub is not None:
+            u0, v0 = self._initial(self.I_sub)
+            nm = sc.newmark
+            with warnings.catch_warnings():
+                warnings.simplefilter("always")
+                self.I_int = Newmark(self.I_sub.model, self._load(self.I_sub), self.dT, u0, v0,
+                                     nm.beta, nm.gamma, li if coupled else None,
+                                     consistent_mass=nm.mass == "consistent")
+        self.integrator = CoupledIntegrator(
+            self.E_int, self.I_int, ratio if coupled else 1,
+            "ph" if method == "ph" else "gc", li if coupled else None, dt=self.dt,
+        )
+
+    # -------------------------------------------------------------------------------------
+    def _wall_contacts(self, sub: Subdomain) -> ContactSet:
+        sc = self.scenario
+        left = self.tagged.global_vertices(self.tagged.facet_vertices(groups.BAR_LEFT_END))
+        blocks, _ = sub.owned_dofs_of(left)
+        have = global_ids(self.comm, sub.parent_vertex[blocks])
+        if have.size != left.size:
+            raise ScenarioError("contact: the wall touches the bar's left end, which must belong "
+                                "to an explicit (cd-lagrange) subdomain")
+        wall = next(c for c in sc.contact if c.type == "wall")
+        return constraint_set(sub, left, 1.0, np.array([wall.gap]), [wall.label],
+                              np.zeros(1, dtype=np.int64))
+
+    def _initial(self, sub: Subdomain) -> tuple[FloatArray, FloatArray]:
+        sc = self.scenario
+        n_own = sub.model.n_owned
+        u0, v0 = np.zeros(n_own), np.zeros(n_own)
+        mdl = sc.model
+        if isinstance(mdl, BarModel):
+            x = sub.V.tabulate_dof_coordinates()[: sub.n_owned_blocks, 0]
+            X = x - next((c.gap for c in sc.contact if c.type == "wall"), 0.0)
+            ul, ur = sc.initial.displacement
+            u0 = ul + (ur - ul) * X / mdl.length
+            v0 = np.full(n_own, sc.initial.velocity)
+            p = sc.initial.pulse
+            if p is not None:
+                c = math.sqrt(sc.material.E / sc.material.rho)
+                z = (X - p.center) / p.width
+                inside = np.abs(z) < 0.5
+                u0 = u0 + np.where(inside, p.amplitude * np.cos(math.pi * z) ** 2, 0.0)
+                du = np.where(inside, -p.amplitude * math.pi / p.width
+                              * np.sin(2 * math.pi * z), 0.0)
+                v0 = v0 - c * du
+        u0[sub.model.fixed] = 0.0
+        v0[sub.model.fixed] = 0.0
+        return u0, v0
+
+    def _load(self, sub: Subdomain) -> LoadFunction:
+        sc = self.scenario
+        m = sub.model
+        g = np.asarray(sc.loading.gravity, dtype=np.float64)
+        bs = sub.bs
+        grav = np.zeros(m.n_owned)
+        if bs == 1:
+            grav = m.mass * g[0]
+        else:
+            grav = (m.mass.reshape(-1, bs) * g[None, :bs]).ravel()
+        grav[m.fixed] = 0.0
+        tip = sc.loading.tip_traction
+        if tip is None:
+            return lambda t: grav
+        tip_v = self.tagged.global_vertices(self.tagged.facet_vertices(groups.BEAM_TIP))
+        unit = _facet_traction_load(sub, tip_v, tip.traction)
+        T = tip.duration
+
+        def load(t: float) -> FloatArray:
+            s = math.sin(math.pi * t / T) if 0.0 <= t <= T else 0.0
+            return grav + s * unit
+
+        return load
+
+    def probe_vertices(self) -> npt.NDArray[np.int64]:
+        """Global ids of the probe: the bar's right end, or the beam's tip face."""
+        name = groups.BEAM_TIP if isinstance(self.scenario.model, BoxBeamModel) else \
+            groups.BAR_RIGHT_END
+        return self.tagged.global_vertices(self.tagged.facet_vertices(name))
+
+    def destroy(self) -> None:
+        self.integrator.destroy()
+        for sub in (self.E_sub, self.I_sub):
+            if sub is not None:
+                sub.destroy()

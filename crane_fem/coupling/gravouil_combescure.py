@@ -1,0 +1,454 @@
+"""Heterogeneous asynchronous coupling: explicit CD-Lagrange (Δt) + implicit Newmark (ΔT = mΔt).
+
+THEORY.md §3 (Gravouil–Combescure, "gc") and the Prakash–Hjelmstad variant ("ph"); see
+docs/theory-notes.md §5 for the derivation of the impulse form used here.
+
+Explicit side (velocity-Verlet CD, half-step velocities V_{j±1/2}); its interface velocity at
+t_j is V_j = ½ (V_{j−1/2} + V_{j+1/2}), so an interface impulse Λ̂_j = Δt Λ_j applied to
+V_{j+1/2} changes V_j by ½ M_E⁻¹ L_Eᵀ Λ̂_j (γ_E Δt = ½ Δt in THEORY's force form). The implicit
+link velocity at t_j is taken as j/m of the end-of-step one that Λ_j would produce:
+γ ΔT M̃⁻¹ L_Iᵀ Λ_j (j/m) = j γ M̃⁻¹ L_Iᵀ Λ̂_j. Multiplying the continuity condition
+L_E V_E,j + L_I V_I,j = 0 by 2 gives a symmetric system, which also carries the explicit
+contact rows (0 ≤ Λ_c ⟂ L_c V_{j+1/2} ≥ 0), solved together:
+
+    [ W_ΓΓ + 2jγ W_I   W_Γc ] [Λ̂_j]     [ 2 (L_E V_j^free + L_I V_I,j^free) ]
+    [ W_cΓ             W_cc ] [Λ_c ] + [ L_c V_{j+1/2}^free               ] ⟂ ...
+
+with W_E = L M_E⁻¹ Lᵀ over the stacked rows (interface; contacts). After the m micro steps the
+implicit side is corrected with Λ_m = Λ̂_m / Δt (THEORY step 3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from crane_fem.contact import ContactSet, solve_mixed_lcp
+from crane_fem.errors import CraneFemError
+from crane_fem.integrators.newmark import Newmark
+from crane_fem.model import LoadFunction, StructuralModel
+
+__all__ = ["CoupledIntegrator", "ExplicitCD", "MacroRecord"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+class ExplicitCD:
+    """CD-Lagrange on the explicit subdomain, split into a free step and a constraint update.
+
+    Rows of ``stack``: the n_Γ interface rows first, then the contact points. Collective.
+    """
+
+    def __init__(
+        self,
+        model: StructuralModel,
+        load: LoadFunction,
+        dt: float,
+        u0: FloatArray,
+        v0: FloatArray,
+        interface: ContactSet,
+        contacts: ContactSet,
+    ) -> None:
+        self.model, self.load, self.dt = model, load, float(dt)
+        self.n_gamma = interface.p
+        self.contacts = contacts
+        self.stack = ContactSet.stack(interface, contacts)
+        self.W = self.stack.delassus(model.minv)
+        self.u = np.array(u0, dtype=np.float64)
+        self.vh = np.array(v0, dtype=np.float64)
+        self.v0 = np.array(v0, dtype=np.float64)
+        self.ku = np.zeros_like(self.u)
+        self._work = np.zeros_like(self.u)
+        self._kw = np.zeros_like(self.u)
+        self._vecs = [model.create_vector(a) for a in (self.u, self.ku, self._work, self._kw)]
+        self.v_int = self.v0.copy()  # velocity at the last integer time
+
+    def _k(self, x: FloatArray) -> FloatArray:
+        self._work[:] = x
+        self.model.K.mult(self._vecs[2], self._vecs[3])
+        return self._kw.copy()
+
+    def damping(self, v: FloatArray) -> FloatArray:
+        m = self.model
+        out = m.alpha * m.mass * v if m.alpha else np.zeros_like(v)
+        if m.beta:
+            out = out + m.beta * self._k(v)
+        return out
+
+    def free(self, t: float, h: float, move: bool) -> dict[str, FloatArray]:
+        """Free step to t (``move``: U += Δt V_{j−1/2}; h = Δt, or Δt/2 for the start)."""
+        if move:
+            self.u += self.dt * self.vh
+        self.model.K.mult(self._vecs[0], self._vecs[1])
+        f = self.load(t)
+        cv = self.damping(self.vh)
+        v_free = self.vh + h * self.model.minv * (f - self.ku - cv)
+        g_old, q = self.stack.gaps_and_velocities(self.vh, v_free)
+        l_old = g_old - self.stack.g0  # L V_{j−1/2}
+        gaps = self.stack.g0 + self.stack.apply(self.u) if self.stack.p else np.zeros(0)
+        return {"f": f, "cv": cv, "v_free": v_free, "q": q, "l_old": l_old, "gaps": gaps}
+
+    def finish(self, fr: dict[str, FloatArray], lam: FloatArray, h: float) -> dict[str, float]:
+        """Apply the stacked impulses, update V_{j+1/2} and V_j; return local energy terms."""
+        m = self.model
+        v_old = self.vh
+        jump = self.stack.transpose(lam, m.n_owned)
+        v_new = fr["v_free"] + m.minv * jump
+        v_int = 0.5 * (v_old + v_new)
+        n_g = self.n_gamma
+        lam_c = np.zeros_like(lam)
+        lam_c[n_g:] = lam[n_g:]
+        jump_c = self.stack.transpose(lam_c, m.n_owned)
+        terms = {
+            "kinetic": 0.5 * float(np.dot(v_new, m.mass * v_new)),
+            "internal": 0.5 * float(np.dot(self.u, self.ku))
+            + 0.5 * self.dt * float(np.dot(v_new, self.ku)),
+            "external_work": h * float(np.dot(v_int, fr["f"])),
+            "damping_dissipated": h * float(np.dot(v_int, fr["cv"])),
+            "contact_work": float(np.dot(v_int, jump_c)),
+            "link_work": float(np.dot(v_int, jump - jump_c)),
+        }
+        self.vh = v_new
+        self.v_int = v_int
+        return terms
+
+    def save(self) -> tuple[FloatArray, ...]:
+        return self.u.copy(), self.vh.copy(), self.v_int.copy()
+
+    def restore(self, state: tuple[FloatArray, ...]) -> None:
+        self.u[:] = state[0]
+        self.vh = state[1].copy()
+        self.v_int = state[2].copy()
+
+    def destroy(self) -> None:
+        for v in self._vecs:
+            v.destroy()
+
+
+@dataclass
+class MacroRecord:
+    """State at a synchronisation time t (macro step ``step``); energies are global."""
+
+    step: int
+    t: float
+    energy: dict[str, float]
+    explicit_u: FloatArray | None
+    explicit_v: FloatArray | None
+    implicit_u: FloatArray | None
+    implicit_v: FloatArray | None
+    contact_impulse: FloatArray
+    gaps: FloatArray
+    interface_impulse: FloatArray
+    micro: list[tuple[float, bool]] = field(default_factory=list)
+
+
+ENERGY_KEYS = [
+    "kinetic",
+    "internal",
+    "external_work",
+    "damping_dissipated",
+    "contact_dissipated",
+    "numerical_dissipated",
+    "interface_dissipated",
+    "interface_energy_gc",
+    "interface_work_physical",
+]
+
+
+class CoupledIntegrator:
+    """GC / PH coupling of one explicit and one implicit subdomain, or either one alone
+    (monolithic reference). Owns both subdomain integrators (``destroy``, collective).
+
+    Args:
+        explicit: the explicit subdomain integrator, or None.
+        implicit: the Newmark subdomain integrator, or None.
+        ratio: m (ΔT = m Δt); 1 when one side is missing.
+        method: "gc" or "ph".
+        l_implicit: the implicit side's interface rows (L_I).
+    """
+
+    def __init__(
+        self,
+        explicit: ExplicitCD | None,
+        implicit: Newmark | None,
+        ratio: int,
+        method: str = "gc",
+        l_implicit: ContactSet | None = None,
+        dt: float | None = None,
+    ) -> None:
+        if explicit is None and implicit is None:
+            raise ValueError("nothing to integrate")
+        self.E, self.I, self.m, self.method = explicit, implicit, int(ratio), method
+        self.LI = l_implicit
+        self.dt = explicit.dt if explicit is not None else float(dt or implicit.dT)  # type: ignore[union-attr]
+        self.dT = self.m * self.dt if explicit is not None else self.dt
+        self.coupled = explicit is not None and implicit is not None
+        self.n_gamma = explicit.n_gamma if (explicit is not None and self.coupled) else 0
+        comm = (explicit or implicit).model.comm  # type: ignore[union-attr]
+        self.comm = comm
+        self.acc = dict.fromkeys(ENERGY_KEYS, 0.0)
+        self.lam_prev = np.zeros(self.n_gamma)  # Λ̂ of the previous micro step
+        self.lam_macro_prev = np.zeros(self.n_gamma)  # Λ (force) at the start of the step
+        self.w_prev = np.zeros(self.n_gamma)  # L_E V_E at the previous micro step
+        self.n = 0
+        self._Z: FloatArray | None = None
+
+    # ------------------------------------------------------------------------------------
+    def _sum(self, values: list[float]) -> FloatArray:
+        buf = np.asarray(values, dtype=np.float64)
+        out = np.empty_like(buf)
+        self.comm.Allreduce(buf, out)
+        return out
+
+    def _implicit_energy(self) -> tuple[float, float]:
+        I = self.I  # noqa: E741
+        assert I is not None
+        kin, pot = self._sum(
+            [0.5 * float(np.dot(I.v, I.mass_action(I.v))),
+             0.5 * float(np.dot(I.u, I.stiffness_action(I.u)))]
+        )
+        return float(kin), float(pot)
+
+    def initialize(self) -> MacroRecord:
+        """Explicit half step and implicit initial acceleration (collective)."""
+        E, I = self.E, self.I  # noqa: E741
+        self._e_kin = self._e_int = self._i_kin = self._i_int = 0.0
+        lam = np.zeros(0)
+        gaps = np.zeros(0)
+        if E is not None:
+            fr = E.free(0.0, 0.5 * E.dt, move=False)
+            n_g = E.n_gamma
+            lam = np.zeros(E.stack.p)
+            active = fr["gaps"][n_g:] <= 0.0
+            if np.any(active):  # initially closed contacts (no interface impulse at t = 0)
+                lam[n_g:] = solve_mixed_lcp(E.W[n_g:, n_g:], fr["q"][n_g:], 0, active)
+            terms = E.finish(fr, lam, 0.5 * E.dt)
+            E.v_int = E.v0.copy()
+            kin, pot = self._sum([terms["kinetic"], terms["internal"]])
+            self._e_kin, self._e_int = float(kin), float(pot)
+            gaps = fr["gaps"]
+        if I is not None:
+            I.initialize(0.0)
+            self._i_kin, self._i_int = self._implicit_energy()
+        if E is not None and self.coupled:
+            self.w_prev = E.stack.apply(E.v0)[: self.n_gamma]
+        return self._record(lam, gaps, [])
+
+    def _record(self, lam: FloatArray, gaps: FloatArray, micro: list[tuple[float, bool]]
+                ) -> MacroRecord:
+        e = dict(self.acc)
+        e["kinetic"] = self._e_kin + self._i_kin
+        e["internal"] = self._e_int + self._i_int
+        e["kinetic_explicit"], e["internal_explicit"] = self._e_kin, self._e_int
+        e["kinetic_implicit"], e["internal_implicit"] = self._i_kin, self._i_int
+        e["total"] = (
+            e["kinetic"] + e["internal"] - e["external_work"] + e["damping_dissipated"]
+            + e["contact_dissipated"] + e["numerical_dissipated"] + e["interface_dissipated"]
+        )
+        n_g = self.n_gamma
+        E, I = self.E, self.I  # noqa: E741
+        return MacroRecord(
+            self.n, self.n * self.dT, e,
+            E.u if E is not None else None, E.v_int if E is not None else None,
+            I.u if I is not None else None, I.v if I is not None else None,
+            lam[n_g:] if lam.size else np.zeros(0), gaps[n_g:] if gaps.size else np.zeros(0),
+            lam[:n_g] / self.dt if lam.size else np.zeros(0), micro,
+        )
+
+    # ------------------------------------------------------------------------------------
+    def _micro(self, j: int, t: float, wI0: FloatArray, wIf: FloatArray,
+               imposed: FloatArray | None) -> tuple[FloatArray, FloatArray, dict[str, float],
+                                                     FloatArray]:
+        """One explicit micro step; interface impulses solved (gc) or imposed (ph)."""
+        E = self.E
+        assert E is not None
+        n_g, m = self.n_gamma, self.m
+        fr = E.free(t, E.dt, move=True)
+        active = fr["gaps"][n_g:] <= 0.0
+        q = fr["q"].copy()
+        A = E.W.copy()
+        if n_g and imposed is None:
+            wI = (1.0 - j / m) * wI0 + (j / m) * wIf
+            q[:n_g] = (fr["l_old"][:n_g] + fr["q"][:n_g]) + 2.0 * wI
+            assert self.I is not None
+            A[:n_g, :n_g] += 2.0 * j * self.I.gamma * self.I.W
+            lam = solve_mixed_lcp(A, q, n_g, active)
+        else:
+            lam = np.zeros(E.stack.p)
+            if imposed is not None:
+                lam[:n_g] = imposed
+                q[n_g:] += A[n_g:, :n_g] @ imposed
+            sub = solve_mixed_lcp(A[n_g:, n_g:], q[n_g:], 0, active)
+            lam[n_g:] = sub
+        u_old = E.u.copy() - E.dt * E.vh  # U_{j-1}
+        terms = E.finish(fr, lam, E.dt)
+        w = E.stack.apply(E.v_int)[:n_g] if n_g else np.zeros(0)
+        # GC-measure (trapezoid, velocity form) and physical interface work of the E side.
+        if n_g:
+            lbar = 0.5 * (self.lam_prev + lam[:n_g])
+            du = E.stack.apply(E.u - u_old)[:n_g]
+            terms["gc_work"] = float(np.dot(lbar, 0.5 * (self.w_prev + w)))
+            terms["phys_work"] = float(np.dot(lbar / E.dt, du))
+        self.lam_prev = lam[:n_g].copy()
+        self.w_prev = w
+        return lam, fr["gaps"], terms, w
+
+    def step(self) -> MacroRecord:
+        """One macro step (m micro steps when coupled) (collective)."""
+        E, I, m = self.E, self.I, self.m  # noqa: E741
+        t0 = self.n * self.dT
+        t1 = t0 + self.dT
+        n_g = self.n_gamma
+        micro: list[tuple[float, bool]] = []
+        e_local = {k: 0.0 for k in ("external_work", "damping_dissipated", "contact_work",
+                                    "link_work")}
+        gc_e = phys_e = 0.0
+        lam = np.zeros(0)
+        gaps = np.zeros(0)
+        if I is not None:
+            uf, vf, af = I.free_step(t1)
+            uI0, vI0 = I.u.copy(), I.v.copy()
+            f0 = I.load(t0)
+            cv0 = I.damping_action(vI0)
+        if E is not None:
+            wI0 = wIf = np.zeros(n_g)
+            if self.coupled:
+                assert self.LI is not None
+                wI0, wIf = self.LI.apply(vI0)[:n_g], self.LI.apply(vf)[:n_g]
+            imposed_ramp = None
+            if self.coupled and self.method == "ph":
+                lam_m = self._ph_solve(t0, wIf)
+                imposed_ramp = lam_m
+            for j in range(1, (m if self.coupled else 1) + 1):
+                tj = t0 + j * E.dt
+                imposed = None
+                if imposed_ramp is not None:
+                    imposed = E.dt * ((1 - j / m) * self.lam_macro_prev + (j / m) * imposed_ramp)
+                lam, gaps, terms, _ = self._micro(j, tj, wI0, wIf, imposed)
+                for k in e_local:
+                    e_local[k] += terms[k]
+                gc_e += terms.get("gc_work", 0.0)
+                phys_e += terms.get("phys_work", 0.0)
+                active_c = bool(np.any(lam[n_g:] > 0.0))
+                micro.append((tj, active_c))
+                if active_c and self.method == "ph" and self.coupled:
+                    raise CraneFemError(
+                        f"coupling method 'ph' needs the explicit subdomain to be linear over "
+                        f"each macro step, but a contact is active at t = {tj:.6g} s; "
+                        "use coupling.method = 'gc'"
+                    )
+            red = self._sum([e_local[k] for k in e_local] + [gc_e, phys_e,
+                            *E_energy(E)])
+            self.acc["external_work"] += red[0]
+            self.acc["damping_dissipated"] += red[1]
+            self.acc["contact_dissipated"] -= red[2]
+            link_e, gc_e_g, phys_e_g = red[3], red[4], red[5]
+            self._e_kin, self._e_int = float(red[6]), float(red[7])
+        if I is not None:
+            I.accept(uf, vf, af)
+            lam_force = lam[:n_g] / self.dt if (self.coupled and lam.size) else np.zeros(0)
+            if self.coupled:
+                I.correct(lam_force)
+            f1 = I.load(t1)
+            cv1 = I.damping_action(I.v)
+            vbar = 0.5 * (vI0 + I.v)
+            link_i = 0.0
+            if self.coupled:
+                assert self.LI is not None
+                fl = self.LI.transpose(0.5 * (self.lam_macro_prev + lam_force), I.model.n_owned)
+                link_i_loc = self.dT * float(np.dot(vbar, fl))
+                phys_i_loc = float(np.dot(I.u - uI0, fl))
+            else:
+                link_i_loc = phys_i_loc = 0.0
+            kin_old, pot_old = self._i_kin, self._i_int
+            red_i = self._sum([
+                self.dT * float(np.dot(vbar, 0.5 * (f0 + f1))),
+                self.dT * float(np.dot(vbar, 0.5 * (cv0 + cv1))),
+                link_i_loc, phys_i_loc,
+                0.5 * float(np.dot(I.v, I.mass_action(I.v))),
+                0.5 * float(np.dot(I.u, I.stiffness_action(I.u))),
+            ])
+            w_ext, w_damp, link_i, phys_i = (float(x) for x in red_i[:4])
+            self._i_kin, self._i_int = float(red_i[4]), float(red_i[5])
+            self.acc["external_work"] += w_ext
+            self.acc["damping_dissipated"] += w_damp
+            # Algorithmic energy of Newmark in the measure ½VᵀMV + ½UᵀKU (zero for β = ¼, γ = ½
+            # without damping): work of all forces in velocity form minus the energy change.
+            d_energy = (self._i_kin + self._i_int) - (kin_old + pot_old)
+            self.acc["numerical_dissipated"] += (w_ext - w_damp + link_i) - d_energy
+            self.lam_macro_prev = lam_force
+        if self.coupled:
+            self.acc["interface_dissipated"] -= link_e + link_i
+            self.acc["interface_energy_gc"] -= gc_e_g + link_i
+            self.acc["interface_work_physical"] -= phys_e_g + phys_i
+        self.n += 1
+        return self._record(lam, gaps, micro)
+
+    def _ph_solve(self, t0: float, wIf: FloatArray) -> FloatArray:
+        """Prakash–Hjelmstad: Λ_m from continuity at the macro step only (explicit linear)."""
+        E, I = self.E, self.I  # noqa: E741
+        assert E is not None and I is not None
+        n_g, m = self.n_gamma, self.m
+        if self._Z is None:
+            self._Z = self._ph_response()
+        state = E.save()
+        lam_prev_saved, w_prev_saved = self.lam_prev.copy(), self.w_prev.copy()
+        w = np.zeros(n_g)
+        for j in range(1, m + 1):
+            imposed = E.dt * (1 - j / m) * self.lam_macro_prev
+            lam, _, _, w = self._micro(j, t0 + j * E.dt, w, w, imposed)
+            if np.any(lam[n_g:] > 0.0):
+                raise CraneFemError(
+                    "coupling method 'ph' needs the explicit subdomain to be linear over each "
+                    f"macro step, but a contact is active at t = {t0 + j * E.dt:.6g} s; use "
+                    "coupling.method = 'gc'"
+                )
+        E.restore(state)
+        self.lam_prev, self.w_prev = lam_prev_saved, w_prev_saved
+        H = self._Z + I.gamma * self.dT * I.W
+        return np.linalg.solve(H, -(w + wIf))
+
+    def _ph_response(self) -> FloatArray:
+        """Z[:, k] = L_E V_E,m for the unit ramp force (j/m) e_k from rest, no load (linear)."""
+        E = self.E
+        assert E is not None
+        n_g, m = self.n_gamma, self.m
+        zero = np.zeros_like(E.u)
+        probe = ExplicitCD(E.model, lambda t: zero, E.dt, zero, zero,
+                           _rows(E.stack, n_g), ContactSet.empty(E.model.comm))
+        Z = np.zeros((n_g, n_g))
+        try:
+            for k in range(n_g):
+                probe.u[:] = 0.0
+                probe.vh = np.zeros_like(zero)
+                for j in range(1, m + 1):
+                    fr = probe.free(0.0, E.dt, move=True)
+                    lam = np.zeros(n_g)
+                    lam[k] = E.dt * j / m
+                    probe.finish(fr, lam, E.dt)
+                Z[:, k] = probe.stack.apply(probe.v_int)
+        finally:
+            probe.destroy()
+        return Z
+
+    def destroy(self) -> None:
+        if self.E is not None:
+            self.E.destroy()
+        if self.I is not None:
+            self.I.destroy()
+
+
+def _rows(stack: ContactSet, n: int) -> ContactSet:
+    """The first n rows of a stacked constraint set."""
+    keep = stack.rows < n
+    return ContactSet(stack.comm, stack.g0[:n], stack.rows[keep], stack.dofs[keep],
+                      stack.coeffs[keep], stack.group[:n], stack.group_names[:1])
+
+
+def E_energy(E: ExplicitCD) -> list[float]:
+    """Local shadow kinetic and internal energy of the explicit side after a micro step."""
+    m = E.model
+    return [0.5 * float(np.dot(E.vh, m.mass * E.vh)),
+            0.5 * float(np.dot(E.u, E.ku)) + 0.5 * E.dt * float(np.dot(E.vh, E.ku))]

@@ -1,0 +1,24 @@
+"""Physical-group names (the only place they are spelled out)."""
+
+__all__ = [
+    "BAR_LEFT",
+    "BAR_LEFT_END",
+    "BAR_RIGHT",
+    "BAR_RIGHT_END",
+    "BEAM_CLAMPED",
+    "BEAM_PART_A",
+    "BEAM_PART_B",
+    "BEAM_TIP",
+]
+
+# Split bar: cells left / right of model.split, and its two end points.
+BAR_LEFT = "left"
+BAR_RIGHT = "right"
+BAR_LEFT_END = "left_end"
+BAR_RIGHT_END = "right_end"
+
+# Box beam: volume before / after the split plane, clamped face x = 0, loaded tip face x = L.
+BEAM_PART_A = "part_a"
+BEAM_PART_B = "part_b"
+BEAM_CLAMPED = "clamped"
+BEAM_TIP = "tip"

@@ -1,0 +1,205 @@
+"""Implicit Newmark (β, γ) for a linear subdomain, with link forces from an interface.
+
+THEORY.md §2. With predictors Ũ = U_n + ΔT V_n + ΔT²(½ − β) A_n, Ṽ = V_n + ΔT(1 − γ) A_n:
+
+    M̃ A_{n+1} = F_{n+1} − K Ũ − C Ṽ + Lᵀ Λ,   M̃ = M + γΔT C + βΔT² K,
+    U_{n+1} = Ũ + βΔT² A_{n+1},   V_{n+1} = Ṽ + γΔT A_{n+1}.
+
+M̃ is assembled once and factored once (MUMPS, options prefix ``crane_fem_newmark_``). A
+step is split as in the GC coupling (THEORY.md §3): :meth:`free_step` (Λ = 0) and
+:meth:`correct` (A += M̃⁻¹ Lᵀ Λ, V += γΔT …, U += βΔT² …), with the columns M̃⁻¹ Lᵀ e_k and the
+condensed operator W = L M̃⁻¹ Lᵀ computed once (n_Γ solves).
+
+Stability: unconditionally stable iff 2β ≥ γ ≥ ½; ½ ≤ γ with 2β < γ is only conditionally
+stable (a RuntimeWarning says so); γ < ½ amplifies and is rejected.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import numpy.typing as npt
+from petsc4py import PETSc
+
+from crane_fem.contact import ContactSet
+from crane_fem.model import LoadFunction, StructuralModel
+
+__all__ = ["Newmark", "check_newmark_parameters"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def check_newmark_parameters(beta: float, gamma: float) -> None:
+    """Reject γ < ½ (ValueError); warn when 2β < γ (conditionally stable)."""
+    if gamma < 0.5:
+        raise ValueError(f"Newmark gamma = {gamma} < 1/2 amplifies the solution (unstable)")
+    if beta < 0.0:
+        raise ValueError(f"Newmark beta = {beta} must be >= 0")
+    if 2.0 * beta < gamma:
+        warnings.warn(
+            f"Newmark beta = {beta}, gamma = {gamma}: 2β < γ is only conditionally stable "
+            "(unconditional stability needs 2β ≥ γ ≥ 1/2)",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+
+
+class Newmark:
+    """Newmark (β, γ) on one subdomain; owns its operator, KSPs and vectors (``destroy``).
+
+    Arrays are owned-DOF arrays. Collective over the model's communicator.
+
+    Attributes:
+        u, v, a: state at the current time (after :meth:`correct`).
+        X: (n_Γ, n) rows M̃⁻¹ Lᵀ e_k; W: L M̃⁻¹ Lᵀ (n_Γ × n_Γ, global, identical on all ranks).
+    """
+
+    def __init__(
+        self,
+        model: StructuralModel,
+        load: LoadFunction,
+        dT: float,
+        u0: FloatArray,
+        v0: FloatArray,
+        beta: float = 0.25,
+        gamma: float = 0.5,
+        interface: ContactSet | None = None,
+        consistent_mass: bool = True,
+    ) -> None:
+        check_newmark_parameters(beta, gamma)
+        if consistent_mass and model.M is None:
+            raise ValueError("consistent mass requested but the model has no mass matrix")
+        self.model, self.load, self.dT = model, load, float(dT)
+        self.beta, self.gamma = float(beta), float(gamma)
+        self.interface = interface if interface is not None else ContactSet.empty(model.comm)
+        self.consistent = consistent_mass
+        comm = model.comm
+        alpha, beta_r = model.alpha, model.beta
+        # M̃ = (1 + γΔT α) M + (βΔT² + γΔT β_R) K
+        self.A = model.K.copy()
+        self.A.scale(beta * dT * dT + gamma * dT * beta_r)
+        self._lumped = model.create_vector(np.array(model.mass))
+        if consistent_mass:
+            assert model.M is not None
+            self.A.axpy(1.0 + gamma * dT * alpha, model.M)
+            self.Mmat = model.M
+        else:
+            d = model.create_vector((1.0 + gamma * dT * alpha) * model.mass)
+            self.A.setDiagonal(d, addv=True)  # addv=True: ADD_VALUES
+            d.destroy()
+        self.ksp = self._lu(self.A, "crane_fem_newmark_")
+        self.ksp_m = None
+        if consistent_mass:
+            assert model.M is not None
+            self.ksp_m = self._lu(model.M, "crane_fem_newmark_mass_")
+
+        n = model.n_owned
+        self.u = np.array(u0, dtype=np.float64)
+        self.v = np.array(v0, dtype=np.float64)
+        self.a = np.zeros(n)
+        self._buf = {k: np.zeros(n) for k in ("x", "y")}
+        self._vec = {k: model.create_vector(arr) for k, arr in self._buf.items()}
+        self._fixed = model.fixed
+        # Interface columns and condensed operator (n_Γ solves with the factored M̃).
+        p = self.interface.p
+        self.X = np.zeros((p, n))
+        for k in range(p):
+            e = np.zeros(p)
+            e[k] = 1.0
+            self.X[k] = self.solve(self.interface.transpose(e, n))
+        W = np.zeros((p, p))
+        for k in range(p):
+            W[:, k] = self.interface.apply(self.X[k])
+        self.W = 0.5 * (W + W.T)
+        self._comm = comm
+
+    def _lu(self, mat: PETSc.Mat, prefix: str) -> PETSc.KSP:
+        ksp = PETSc.KSP().create(self.model.comm)  # type: ignore[arg-type]
+        ksp.setOptionsPrefix(prefix)
+        ksp.setOperators(mat)
+        ksp.setType("preonly")
+        pc = ksp.getPC()
+        pc.setType("lu")
+        pc.setFactorSolverType("mumps")
+        ksp.setFromOptions()
+        return ksp
+
+    def _apply(self, op: str, x: FloatArray) -> FloatArray:
+        """K x, M x or M̃⁻¹ x (op = 'K', 'M', 'solve', 'solve_m') as a new owned array."""
+        self._buf["x"][:] = x
+        if op == "K":
+            self.model.K.mult(self._vec["x"], self._vec["y"])
+        elif op == "M":
+            if self.consistent:
+                self.Mmat.mult(self._vec["x"], self._vec["y"])
+            else:
+                self._buf["y"][:] = self.model.mass * x
+        elif op == "solve":
+            self.ksp.solve(self._vec["x"], self._vec["y"])
+        else:
+            assert self.ksp_m is not None
+            self.ksp_m.solve(self._vec["x"], self._vec["y"])
+        out = self._buf["y"].copy()
+        return out
+
+    def solve(self, rhs: FloatArray) -> FloatArray:
+        """M̃⁻¹ rhs (collective)."""
+        return self._apply("solve", rhs)
+
+    def mass_action(self, x: FloatArray) -> FloatArray:
+        return self._apply("M", x)
+
+    def stiffness_action(self, x: FloatArray) -> FloatArray:
+        return self._apply("K", x)
+
+    def damping_action(self, x: FloatArray) -> FloatArray:
+        m = self.model
+        out = np.zeros_like(x)
+        if m.alpha:
+            out += m.alpha * self.mass_action(x)
+        if m.beta:
+            out += m.beta * self.stiffness_action(x)
+        return out
+
+    def initialize(self, t0: float, link: FloatArray | None = None) -> None:
+        """A_0 from M A_0 = F_0 − K U_0 − C V_0 (+ link force) (collective)."""
+        rhs = self.load(t0) - self.stiffness_action(self.u) - self.damping_action(self.v)
+        if link is not None:
+            rhs = rhs + link
+        rhs[self._fixed] = 0.0
+        if self.consistent:
+            self.a = self._apply("solve_m", rhs)
+        else:
+            self.a = np.where(self._fixed, 0.0, rhs / np.where(self._fixed, 1.0, self.model.mass))
+
+    def free_step(self, t_new: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(U, V, A) at t_new with Λ = 0 at t_new; the state is not changed (collective)."""
+        dT, b, g = self.dT, self.beta, self.gamma
+        ut = self.u + dT * self.v + dT * dT * (0.5 - b) * self.a
+        vt = self.v + dT * (1.0 - g) * self.a
+        rhs = self.load(t_new) - self.stiffness_action(ut) - self.damping_action(vt)
+        rhs[self._fixed] = 0.0
+        a = self.solve(rhs)
+        return ut + b * dT * dT * a, vt + g * dT * a, a
+
+    def accept(self, u: FloatArray, v: FloatArray, a: FloatArray) -> None:
+        self.u, self.v, self.a = u, v, a
+
+    def correct(self, force: FloatArray) -> None:
+        """Add the response to link forces Λ (n_Γ, N) applied at the current time."""
+        if force.size == 0:
+            return
+        da = force @ self.X
+        self.a = self.a + da
+        self.v = self.v + self.gamma * self.dT * da
+        self.u = self.u + self.beta * self.dT * self.dT * da
+
+    def destroy(self) -> None:
+        self.ksp.destroy()
+        if self.ksp_m is not None:
+            self.ksp_m.destroy()
+        self.A.destroy()
+        self._lumped.destroy()
+        for vec in self._vec.values():
+            vec.destroy()
