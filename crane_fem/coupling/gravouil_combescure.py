@@ -339,13 +339,13 @@ class CoupledIntegrator:
                         f"each macro step, but a contact is active at t = {tj:.6g} s; "
                         "use coupling.method = 'gc'"
                     )
-            red = self._sum([e_local[k] for k in e_local] + [gc_e, phys_e,
-                            *E_energy(E)])
+            # gc_e and phys_e are already global (dot products of reduced interface vectors).
+            red = self._sum([e_local[k] for k in e_local] + [*E_energy(E)])
             self.acc["external_work"] += red[0]
             self.acc["damping_dissipated"] += red[1]
             self.acc["contact_dissipated"] -= red[2]
-            link_e, gc_e_g, phys_e_g = red[3], red[4], red[5]
-            self._e_kin, self._e_int = float(red[6]), float(red[7])
+            link_e, gc_e_g, phys_e_g = red[3], gc_e, phys_e
+            self._e_kin, self._e_int = float(red[4]), float(red[5])
         if I is not None:
             I.accept(uf, vf, af)
             lam_force = lam[:n_g] / self.dt if (self.coupled and lam.size) else np.zeros(0)
