@@ -36,9 +36,7 @@ def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh:
     """The parent mesh of the scenario with its named groups (collective)."""
     mdl = sc.model
     if isinstance(mdl, BoxBeamModel):
-        return create_box_beam(
-            comm, BoxBeam(mdl.length, mdl.width, mdl.height, mdl.split, mdl.h)
-        )
+        return create_box_beam(comm, BoxBeam(mdl.length, mdl.width, mdl.height, mdl.split, mdl.h))
     assert isinstance(mdl, BarModel)
     x0 = next((c.gap for c in sc.contact if c.type == "wall"), 0.0)
     split = mdl.split if mdl.split is not None else mdl.length  # all cells "left"
@@ -67,8 +65,7 @@ def _facet_traction_load(
     msh.topology.create_connectivity(tdim - 1, 0)
     facets = dolfinx.mesh.exterior_facet_indices(msh.topology)
     f2v = msh.topology.connectivity(tdim - 1, 0)
-    on_tip = [f for f in facets if np.all(np.isin(sub.vertex_global[f2v.links(f)],
-                                                  tip_vertices))]
+    on_tip = [f for f in facets if np.all(np.isin(sub.vertex_global[f2v.links(f)], tip_vertices))]
     idx = np.asarray(on_tip, dtype=np.int32)
     mt = dolfinx.mesh.meshtags(msh, tdim - 1, idx, np.ones(idx.size, dtype=np.int32))
     ds = ufl.Measure("ds", domain=msh, subdomain_data=mt)
@@ -129,16 +126,32 @@ class CoupledSimulation:
         if explicit_specs:
             names = [g for s in explicit_specs for g in s.groups]
             self.E_sub = create_subdomain(
-                self.tagged, "+".join(self.explicit_names), "cd-lagrange",
-                _cells_of(self.tagged, names), mat.E, mat.nu, mat.rho, area, rayleigh, fixed,
+                self.tagged,
+                "+".join(self.explicit_names),
+                "cd-lagrange",
+                _cells_of(self.tagged, names),
+                mat.E,
+                mat.nu,
+                mat.rho,
+                area,
+                rayleigh,
+                fixed,
                 consistent_mass=False,
             )
         if implicit_specs:
             nm = sc.newmark
             self.I_sub = create_subdomain(
-                self.tagged, implicit_specs[0].name, "newmark",
-                _cells_of(self.tagged, implicit_specs[0].groups), mat.E, mat.nu, mat.rho, area,
-                rayleigh, fixed, consistent_mass=nm.mass == "consistent",
+                self.tagged,
+                implicit_specs[0].name,
+                "newmark",
+                _cells_of(self.tagged, implicit_specs[0].groups),
+                mat.E,
+                mat.nu,
+                mat.rho,
+                area,
+                rayleigh,
+                fixed,
+                consistent_mass=nm.mass == "consistent",
             )
 
         # Step sizes: Δt from the explicit subdomain's own critical step.
@@ -193,19 +206,32 @@ class CoupledSimulation:
         self.I_int: Newmark | None = None
         if self.E_sub is not None:
             u0, v0 = self._initial(self.E_sub)
-            self.E_int = ExplicitCD(self.E_sub.model, self._load(self.E_sub), self.dt, u0, v0,
-                                    le, contacts)
+            self.E_int = ExplicitCD(
+                self.E_sub.model, self._load(self.E_sub), self.dt, u0, v0, le, contacts
+            )
         if self.I_sub is not None:
             u0, v0 = self._initial(self.I_sub)
             nm = sc.newmark
             with warnings.catch_warnings():
                 warnings.simplefilter("always")
-                self.I_int = Newmark(self.I_sub.model, self._load(self.I_sub), self.dT, u0, v0,
-                                     nm.beta, nm.gamma, li if coupled else None,
-                                     consistent_mass=nm.mass == "consistent")
+                self.I_int = Newmark(
+                    self.I_sub.model,
+                    self._load(self.I_sub),
+                    self.dT,
+                    u0,
+                    v0,
+                    nm.beta,
+                    nm.gamma,
+                    li if coupled else None,
+                    consistent_mass=nm.mass == "consistent",
+                )
         self.integrator = CoupledIntegrator(
-            self.E_int, self.I_int, ratio if coupled else 1,
-            "ph" if method == "ph" else "gc", li if coupled else None, dt=self.dt,
+            self.E_int,
+            self.I_int,
+            ratio if coupled else 1,
+            "ph" if method == "ph" else "gc",
+            li if coupled else None,
+            dt=self.dt,
         )
 
     # -------------------------------------------------------------------------------------
@@ -215,11 +241,14 @@ class CoupledSimulation:
         blocks, _ = sub.owned_dofs_of(left)
         have = global_ids(self.comm, sub.parent_vertex[blocks])
         if have.size != left.size:
-            raise ScenarioError("contact: the wall touches the bar's left end, which must belong "
-                                "to an explicit (cd-lagrange) subdomain")
+            raise ScenarioError(
+                "contact: the wall touches the bar's left end, which must belong "
+                "to an explicit (cd-lagrange) subdomain"
+            )
         wall = next(c for c in sc.contact if c.type == "wall")
-        return constraint_set(sub, left, 1.0, np.array([wall.gap]), [wall.label],
-                              np.zeros(1, dtype=np.int64))
+        return constraint_set(
+            sub, left, 1.0, np.array([wall.gap]), [wall.label], np.zeros(1, dtype=np.int64)
+        )
 
     def _initial(self, sub: Subdomain) -> tuple[FloatArray, FloatArray]:
         sc = self.scenario
@@ -238,8 +267,9 @@ class CoupledSimulation:
                 z = (X - p.center) / p.width
                 inside = np.abs(z) < 0.5
                 u0 = u0 + np.where(inside, p.amplitude * np.cos(math.pi * z) ** 2, 0.0)
-                du = np.where(inside, -p.amplitude * math.pi / p.width
-                              * np.sin(2 * math.pi * z), 0.0)
+                du = np.where(
+                    inside, -p.amplitude * math.pi / p.width * np.sin(2 * math.pi * z), 0.0
+                )
                 v0 = v0 - c * du
         u0[sub.model.fixed] = 0.0
         v0[sub.model.fixed] = 0.0
@@ -271,8 +301,11 @@ class CoupledSimulation:
 
     def probe_vertices(self) -> npt.NDArray[np.int64]:
         """Global ids of the probe: the bar's right end, or the beam's tip face."""
-        name = groups.BEAM_TIP if isinstance(self.scenario.model, BoxBeamModel) else \
-            groups.BAR_RIGHT_END
+        name = (
+            groups.BEAM_TIP
+            if isinstance(self.scenario.model, BoxBeamModel)
+            else groups.BAR_RIGHT_END
+        )
         return self.tagged.global_vertices(self.tagged.facet_vertices(name))
 
     def destroy(self) -> None:

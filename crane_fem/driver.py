@@ -257,8 +257,11 @@ def run_scenario(
     return RunResult(summary, arrays)
 
 
-def _probe_sums(sub, values: FloatArray, vertices, exclude) -> tuple[FloatArray, int]:  # type: ignore[no-untyped-def]
+def _probe_sums(
+    sub: Any, values: FloatArray | None, vertices: Any, exclude: Any
+) -> tuple[FloatArray, int]:
     """Local sums of ``values`` (owned DOFs) per component over probe vertices."""
+    assert values is not None
     blocks, _ = sub.owned_dofs_of(np.setdiff1d(vertices, exclude))
     bs = sub.bs
     vals = values.reshape(-1, bs)[blocks]
@@ -284,8 +287,17 @@ def run_coupled(
     groups_c = sim.contacts.group_names
     bs = (sim.E_sub or sim.I_sub).bs  # type: ignore[union-attr]
     probe = sim.probe_vertices()
-    columns = ["t", *ENERGY_KEYS, "total", "kinetic_explicit", "internal_explicit",
-               "kinetic_implicit", "internal_implicit", "contact_force", "active_contacts"]
+    columns = [
+        "t",
+        *ENERGY_KEYS,
+        "total",
+        "kinetic_explicit",
+        "internal_explicit",
+        "kinetic_implicit",
+        "internal_implicit",
+        "contact_force",
+        "active_contacts",
+    ]
     columns += [f"gap_{g}" for g in groups_c] + [f"force_{g}" for g in groups_c]
     columns += [f"probe_u{c}" for c in range(bs)] + [f"probe_v{c}" for c in range(bs)]
     columns += ["interface_force_norm", "interface_velocity_jump"]
@@ -313,10 +325,24 @@ def run_coupled(
     if sc.output.xdmf:
         for sub in (sim.E_sub, sim.I_sub):
             if sub is not None:
-                writers.append((sub, XDMFSeries(out / f"solution_{sub.name.replace('+', '_')}.xdmf",
-                                                sub.V, ["displacement", "velocity"])))
-    bar = tqdm(total=sim.n_macro, disable=not show_bar, delay=2.0, mininterval=0.5,
-               unit="macro step", desc=sc.name)
+                writers.append(
+                    (
+                        sub,
+                        XDMFSeries(
+                            out / f"solution_{sub.name.replace('+', '_')}.xdmf",
+                            sub.V,
+                            ["displacement", "velocity"],
+                        ),
+                    )
+                )
+    bar = tqdm(
+        total=sim.n_macro,
+        disable=not show_bar,
+        delay=2.0,
+        mininterval=0.5,
+        unit="macro step",
+        desc=sc.name,
+    )
     micro: list[tuple[float, bool]] = []
     total0: float | None = None
     scale = max_drift = 0.0
@@ -332,11 +358,11 @@ def run_coupled(
                     raise UnstableRunError(
                         f"unstable run: non-finite energy at macro step {rec.step} "
                         f"(t = {rec.t:.6g} s); Δt = {sim.dt:.4e} s, critical "
-                        f"{sim.dt_critical:.4e} s")
+                        f"{sim.dt_critical:.4e} s"
+                    )
                 if total0 is None:
                     total0 = e["total"]
-                scale = max(scale, abs(e["kinetic"]) + abs(e["internal"])
-                            + abs(e["external_work"]))
+                scale = max(scale, abs(e["kinetic"]) + abs(e["internal"]) + abs(e["external_work"]))
                 max_drift = max(max_drift, abs(e["total"] - total0))
                 step_ifd = e["interface_energy_gc"] - ifd_prev
                 if rec.step > 0:
@@ -349,8 +375,8 @@ def run_coupled(
                     force = rec.contact_impulse / sim.dt
                     row["contact_force"] = float(force.sum())
                     row["active_contacts"] = float(np.count_nonzero(force > 0))
-                    gmin = sim.contacts.group_mins(rec.gaps) if groups_c else []
-                    gsum = sim.contacts.group_sums(force) if groups_c else []
+                    gmin = sim.contacts.group_mins(rec.gaps)
+                    gsum = sim.contacts.group_sums(force)
                     for i, g in enumerate(groups_c):
                         row[f"gap_{g}"] = float(gmin[i])
                         row[f"force_{g}"] = float(gsum[i])
@@ -367,16 +393,27 @@ def run_coupled(
                         b, _ = _probe_sums(sim.I_sub, rec.implicit_v, probe, excl)
                         su, sv, cnt = su + a, sv + b, cnt + k
                     tot = comm.allreduce(np.r_[su, sv, cnt], op=MPI.SUM)
-                    for c in range(bs):
-                        row[f"probe_u{c}"] = float(tot[c] / max(tot[-1], 1))
-                        row[f"probe_v{c}"] = float(tot[bs + c] / max(tot[-1], 1))
+                    for k in range(bs):
+                        row[f"probe_u{k}"] = float(tot[k] / max(tot[-1], 1))
+                        row[f"probe_v{k}"] = float(tot[bs + k] / max(tot[-1], 1))
                     row["interface_force_norm"] = float(np.linalg.norm(rec.interface_impulse))
                     jump = 0.0
-                    if integ.coupled and sim.E_int is not None and integ.LI is not None:
+                    if (
+                        integ.coupled
+                        and sim.E_int is not None
+                        and integ.LI is not None
+                        and rec.implicit_v is not None
+                    ):
                         n_g = integ.n_gamma
-                        jump = float(np.max(np.abs(
-                            sim.E_int.stack.apply(sim.E_int.v_int)[:n_g]
-                            + integ.LI.apply(rec.implicit_v)[:n_g]), initial=0.0))
+                        jump = float(
+                            np.max(
+                                np.abs(
+                                    sim.E_int.stack.apply(sim.E_int.v_int)[:n_g]
+                                    + integ.LI.apply(rec.implicit_v)[:n_g]
+                                ),
+                                initial=0.0,
+                            )
+                        )
                     row["interface_velocity_jump"] = jump
                     writer.write(row)
                     for c in columns:
@@ -384,10 +421,10 @@ def run_coupled(
                 if writers and (rec.step % xdmf_every == 0 or rec.step == sim.n_macro):
                     for sub, w in writers:
                         is_e = sub is sim.E_sub
-                        w.write(rec.t, {
-                            "displacement": rec.explicit_u if is_e else rec.implicit_u,
-                            "velocity": rec.explicit_v if is_e else rec.implicit_v,
-                        })
+                        du = rec.explicit_u if is_e else rec.implicit_u
+                        dv = rec.explicit_v if is_e else rec.implicit_v
+                        assert du is not None and dv is not None
+                        w.write(rec.t, {"displacement": du, "velocity": dv})
                 if n == sim.n_macro:
                     break
                 rec = integ.step()
@@ -403,15 +440,19 @@ def run_coupled(
         for _, w in writers:
             w.close()
         intervals = _contact_intervals([t for t, _ in micro], [a for _, a in micro])
-        summary.update({
-            "steps_done": len(history["t"]) and int(round(history["t"][-1] / sim.dT)),
-            "wall_time_s": comm.allreduce(time.perf_counter() - t_wall, op=MPI.MAX),
-            "energy_balance_error": max_drift / scale if scale > 0 else 0.0,
-            "energy_balance_error_abs": max_drift,
-            "interface_energy_gc_min_step": ifd_min_step if math.isfinite(ifd_min_step) else 0.0,
-            "contact_intervals": len(intervals),
-            "contact_interval_times": intervals[:100],
-        })
+        summary.update(
+            {
+                "steps_done": round(history["t"][-1] / sim.dT) if history["t"] else 0,
+                "wall_time_s": comm.allreduce(time.perf_counter() - t_wall, op=MPI.MAX),
+                "energy_balance_error": max_drift / scale if scale > 0 else 0.0,
+                "energy_balance_error_abs": max_drift,
+                "interface_energy_gc_min_step": ifd_min_step
+                if math.isfinite(ifd_min_step)
+                else 0.0,
+                "contact_intervals": len(intervals),
+                "contact_interval_times": intervals[:100],
+            }
+        )
         write_summary(out / "summary.json", summary, comm)
         sim.destroy()
         comm.barrier()

@@ -275,8 +275,10 @@ class Scenario(_Section):
             if cpl.scheme is None:
                 raise ValueError("coupling.scheme is required by method 'monolithic'")
             if cpl.scheme == "newmark" and self.contact:
-                raise ValueError("contact needs an explicit subdomain: coupling.scheme = "
-                                 "'newmark' cannot carry [[contact]]")
+                raise ValueError(
+                    "contact needs an explicit subdomain: coupling.scheme = "
+                    "'newmark' cannot carry [[contact]]"
+                )
             return self
         if cpl is not None and cpl.scheme is not None:
             raise ValueError("coupling.scheme applies to method 'monolithic' only")
@@ -310,8 +312,9 @@ class Scenario(_Section):
         if implicit and explicit and cpl is None:
             raise ValueError("explicit and implicit subdomains need a [coupling] section")
         if self.integrator.scheme != "cd-lagrange":
-            raise ValueError("integrator.scheme: with [[subdomain]] the scheme is given per "
-                             "subdomain")
+            raise ValueError(
+                "integrator.scheme: with [[subdomain]] the scheme is given per subdomain"
+            )
         return self
 
     @model_validator(mode="after")
@@ -374,8 +377,9 @@ def _format_error(source: str, exc: ValidationError) -> str:
     err = errors[0]
     # Drop the discriminator tag pydantic inserts after "model" (model.bar.length -> model.length).
     raw = tuple(err["loc"])
-    loc = tuple(p for i, p in enumerate(raw) if not (i > 0 and raw[i - 1] == "model"
-                                                       and p in MODEL_KINDS))
+    loc = tuple(
+        p for i, p in enumerate(raw) if not (i > 0 and raw[i - 1] == "model" and p in MODEL_KINDS)
+    )
     path = ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in loc).replace(".[", "[")
     kind = err["type"]
     if kind == "union_tag_invalid":

@@ -24,17 +24,24 @@ PULSE = {
 
 
 def coupled(ratio: int, method: str = "gc", **extra):
-    return make_scenario(**{**PULSE, **extra}, subdomain=SUBS,
-                         coupling={"method": method, "ratio": ratio})
+    return make_scenario(
+        **{**PULSE, **extra}, subdomain=SUBS, coupling={"method": method, "ratio": ratio}
+    )
 
 
 def test_m1_interface_energy_zero_in_gc_measure(shared_tmp) -> None:
     """m = 1, CD + average acceleration, 10⁴ steps: the interface energy in the GC measure
     (link work Δt Λ̄ᵀ(L_E V̄_E + L_I V̄_I), trapezoidal, docs/theory-notes.md §5) vanishes by
     velocity continuity at both ends of every step; the physical work is reported beside it."""
-    sc = make_scenario(**{**PULSE, "model": {"elements": 2000, "split": 0.4},
-                          "time": {"end": 10_000 * 0.25e-3, "dt": 0.25e-3, "dt_factor": None}},
-                       subdomain=SUBS, coupling={"method": "gc", "ratio": 1})
+    sc = make_scenario(
+        **{
+            **PULSE,
+            "model": {"elements": 2000, "split": 0.4},
+            "time": {"end": 10_000 * 0.25e-3, "dt": 0.25e-3, "dt_factor": None},
+        },
+        subdomain=SUBS,
+        coupling={"method": "gc", "ratio": 1},
+    )
     res = run(sc, shared_tmp)
     h, s = res.history, res.summary
     assert s["steps"] == 10_000
@@ -53,10 +60,18 @@ def test_m1_equals_monolithic_when_both_sides_are_central_difference(shared_tmp)
     kw = {**PULSE, "model": {"elements": 400, "split": 0.4}}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # β = 0: conditionally stable
-        a = run(make_scenario(**kw, subdomain=SUBS, coupling={"method": "gc", "ratio": 1},
-                              newmark={"beta": 0.0, "gamma": 0.5, "mass": "lumped"}), shared_tmp)
-    b = run(make_scenario(**kw, coupling={"method": "monolithic", "scheme": "cd-lagrange"}),
-            shared_tmp)
+        a = run(
+            make_scenario(
+                **kw,
+                subdomain=SUBS,
+                coupling={"method": "gc", "ratio": 1},
+                newmark={"beta": 0.0, "gamma": 0.5, "mass": "lumped"},
+            ),
+            shared_tmp,
+        )
+    b = run(
+        make_scenario(**kw, coupling={"method": "monolithic", "scheme": "cd-lagrange"}), shared_tmp
+    )
     ua, ub = a.history["probe_u0"], b.history["probe_u0"]
     assert np.max(np.abs(ua - ub)) <= 1e-10 * np.max(np.abs(ub))
     assert np.max(np.abs(a.history["total"] - b.history["total"])) <= 1e-10 * b.history["total"][0]
@@ -73,8 +88,10 @@ def test_wave_crossing_m10_dissipation_and_transmitted_amplitude(shared_tmp) -> 
     assert 0.0 <= h["interface_energy_gc"][-1] <= 0.02 * e0
     assert 0.0 <= h["interface_dissipated"][-1] <= 0.02 * e0
     assert s["energy_balance_error"] <= 1e-10
-    mono = run(make_scenario(**PULSE, coupling={"method": "monolithic", "scheme": "cd-lagrange"}),
-               shared_tmp)
+    mono = run(
+        make_scenario(**PULSE, coupling={"method": "monolithic", "scheme": "cd-lagrange"}),
+        shared_tmp,
+    )
     peak, peak_ref = np.max(h["probe_u0"]), np.max(mono.history["probe_u0"])
     assert peak == pytest.approx(peak_ref, rel=0.02)
 
@@ -98,24 +115,31 @@ def test_impact_in_explicit_part(shared_tmp) -> None:
     (At m = 5–10 the unresolved compression front crossing the interface twice delays the
     release by ≈ 5 h/c: measured in benchmarks/RESULTS.md.)"""
     ne = 200
-    sc = make_scenario(model={"elements": ne, "split": 0.5}, subdomain=SUBS,
-                       coupling={"method": "gc", "ratio": 2}, time={"end": 2.4, "dt_factor": 0.9})
+    sc = make_scenario(
+        model={"elements": ne, "split": 0.5},
+        subdomain=SUBS,
+        coupling={"method": "gc", "ratio": 2},
+        time={"end": 2.4, "dt_factor": 0.9},
+    )
     res = run(sc, shared_tmp)
     s = res.summary
     assert s["contact_intervals"] == 1
-    (a, b), = s["contact_interval_times"]
+    ((a, b),) = s["contact_interval_times"]
     assert abs((b - a) - 2.0) <= 2.0 / ne + s["dt"]
     assert abs(a - 0.1) <= s["dt"]
 
 
 def test_long_coupled_run_bounded(shared_tmp) -> None:
     """Explicit part at 0.95 of its critical step, m = 100, 10⁵ micro steps: bounded energy."""
-    sc = make_scenario(model={"elements": 20, "split": 0.5, "clamp": "right"},
-                       initial={"velocity": 0.0, "displacement": [0.5, 0.0]},
-                       contact=[{"type": "wall", "gap": 0.0}], subdomain=SUBS,
-                       coupling={"method": "gc", "ratio": 100},
-                       time={"end": 100_000 * 0.95 * 0.05 * 1.02, "dt_factor": 0.95},
-                       output={"every": 10, "xdmf": False})
+    sc = make_scenario(
+        model={"elements": 20, "split": 0.5, "clamp": "right"},
+        initial={"velocity": 0.0, "displacement": [0.5, 0.0]},
+        contact=[{"type": "wall", "gap": 0.0}],
+        subdomain=SUBS,
+        coupling={"method": "gc", "ratio": 100},
+        time={"end": 100_000 * 0.95 * 0.05 * 1.02, "dt_factor": 0.95},
+        output={"every": 10, "xdmf": False},
+    )
     res = run(sc, shared_tmp)
     s, h = res.summary, res.history
     assert s["micro_steps"] >= 100_000
@@ -131,8 +155,14 @@ def test_long_coupled_run_bounded(shared_tmp) -> None:
 
 BEAM = {
     "name": "beam",
-    "model": {"kind": "box_beam", "length": 1.0, "width": 0.1, "height": 0.1, "split": 0.5,
-              "h": 0.05},
+    "model": {
+        "kind": "box_beam",
+        "length": 1.0,
+        "width": 0.1,
+        "height": 0.1,
+        "split": 0.5,
+        "h": 0.05,
+    },
     "material": {"E": 2.1e11, "rho": 7800.0, "nu": 0.3},
     "loading": {"tip_traction": {"traction": [0.0, 0.0, -1e6], "duration": 2e-3}},
     "time": {"end": 4e-3, "dt_factor": 0.9},
@@ -150,18 +180,30 @@ def test_box_beam_coupled_vs_monolithic(shared_tmp) -> None:
     differs). m = 1: the tip history equals the monolithic one to the O(Δt²) difference
     between average acceleration and central difference (< 1e-4 of the peak, measured 1.5e-5);
     the GC error grows with m (first order), measured and reported for m = 3 and 10."""
-    mono = run(parse_scenario({**BEAM, "coupling": {"method": "monolithic",
-                                                    "scheme": "cd-lagrange"}}), shared_tmp)
+    mono = run(
+        parse_scenario({**BEAM, "coupling": {"method": "monolithic", "scheme": "cd-lagrange"}}),
+        shared_tmp,
+    )
     ref_t, ref = mono.history["t"], mono.history["probe_u2"]
     errors = {}
     for m in (1, 3, 10):
-        res = run(parse_scenario({**BEAM, "subdomain": BEAM_SUBS, "newmark": {"mass": "lumped"},
-                                  "coupling": {"method": "gc", "ratio": m}}), shared_tmp)
+        res = run(
+            parse_scenario(
+                {
+                    **BEAM,
+                    "subdomain": BEAM_SUBS,
+                    "newmark": {"mass": "lumped"},
+                    "coupling": {"method": "gc", "ratio": m},
+                }
+            ),
+            shared_tmp,
+        )
         assert res.summary["interface_dofs"] > 0
         assert res.summary["energy_balance_error"] <= 1e-10
         h = res.history
         errors[m] = np.max(np.abs(h["probe_u2"] - np.interp(h["t"], ref_t, ref))) / np.max(
-            np.abs(ref))
+            np.abs(ref)
+        )
     assert errors[1] < 1e-4
     assert errors[1] < errors[3] < errors[10] < 0.05
 
@@ -172,37 +214,68 @@ def test_ph_continuity_at_macro_steps_and_contact_limitation(shared_tmp) -> None
     assert np.max(h["interface_velocity_jump"]) <= 1e-12
     assert res.summary["energy_balance_error"] <= 1e-10
     # PH needs a linear explicit side over the macro step: an impact there is refused.
-    sc = make_scenario(model={"elements": 100, "split": 0.5}, subdomain=SUBS,
-                       coupling={"method": "ph", "ratio": 5}, time={"end": 0.5})
+    sc = make_scenario(
+        model={"elements": 100, "split": 0.5},
+        subdomain=SUBS,
+        coupling={"method": "ph", "ratio": 5},
+        time={"end": 0.5},
+    )
     with pytest.raises(CraneFemError, match="'ph' needs the explicit subdomain to be linear"):
         run(sc, shared_tmp)
 
 
 BAD = [
     ({"coupling": {"method": "gc", "ratio": 2.5}}, "coupling.ratio"),
-    ({"subdomain": [{"name": "a", "groups": ["left", "middle"], "scheme": "cd-lagrange"},
-                    {"name": "b", "groups": ["right"], "scheme": "newmark"}],
-      "coupling": {"ratio": 2}}, "unknown group 'middle'"),
-    ({"subdomain": [{"name": "a", "groups": ["left"], "scheme": "newmark"},
-                    {"name": "b", "groups": ["right"], "scheme": "newmark"}]},
-     "two implicit (newmark) subdomains without a [coupling]"),
+    (
+        {
+            "subdomain": [
+                {"name": "a", "groups": ["left", "middle"], "scheme": "cd-lagrange"},
+                {"name": "b", "groups": ["right"], "scheme": "newmark"},
+            ],
+            "coupling": {"ratio": 2},
+        },
+        "unknown group 'middle'",
+    ),
+    (
+        {
+            "subdomain": [
+                {"name": "a", "groups": ["left"], "scheme": "newmark"},
+                {"name": "b", "groups": ["right"], "scheme": "newmark"},
+            ]
+        },
+        "two implicit (newmark) subdomains without a [coupling]",
+    ),
     ({"coupling": {"method": "gc", "ratio": 0}}, "coupling.ratio"),
-    ({"subdomain": [{"name": "a", "groups": ["left"], "scheme": "cd-lagrange"}],
-      "coupling": {"ratio": 2}}, "groups ['right'] belong to no subdomain"),
+    (
+        {
+            "subdomain": [{"name": "a", "groups": ["left"], "scheme": "cd-lagrange"}],
+            "coupling": {"ratio": 2},
+        },
+        "groups ['right'] belong to no subdomain",
+    ),
 ]
 
 
 @pytest.mark.parametrize(("extra", "fragment"), BAD)
 def test_bad_coupling_input(extra, fragment) -> None:
     base = {"model": {"elements": 10, "split": 0.5}, "subdomain": SUBS}
-    with pytest.raises(ScenarioError, match=fragment.replace("[", r"\[").replace("(", r"\(")
-                       .replace(")", r"\)").replace("]", r"\]")):
+    with pytest.raises(
+        ScenarioError,
+        match=fragment.replace("[", r"\[")
+        .replace("(", r"\(")
+        .replace(")", r"\)")
+        .replace("]", r"\]"),
+    ):
         make_scenario(**{**base, **extra})
 
 
 def test_explicit_dt_above_critical_is_an_error(shared_tmp) -> None:
-    sc = make_scenario(model={"elements": 10, "split": 0.5}, subdomain=SUBS,
-                       coupling={"ratio": 2}, time={"end": 0.5, "dt": 0.2, "dt_factor": None})
+    sc = make_scenario(
+        model={"elements": 10, "split": 0.5},
+        subdomain=SUBS,
+        coupling={"ratio": 2},
+        time={"end": 0.5, "dt": 0.2, "dt_factor": None},
+    )
     with pytest.raises(ScenarioError, match=r"time.dt = 2.0000e-01 s exceeds the critical step"):
         run(sc, shared_tmp)
     assert math.isfinite(0.1)
@@ -225,22 +298,47 @@ def test_coupled_mpiexec_two_ranks_same_histories(tmp_path, case) -> None:
     scenario = demos / ("split_bar.toml" if case == "bar" else "box_beam.toml")
     exe = Path(sys.executable).parent / "crane-fem"
     mpiexec = Path(sys.executable).parent / "mpiexec"
-    base = [str(exe), "run", str(scenario), "--set", "output.xdmf=false", "--set", "time.end=" +
-            ("0.6" if case == "bar" else "1e-3")]
+    base = [
+        str(exe),
+        "run",
+        str(scenario),
+        "--set",
+        "output.xdmf=false",
+        "--set",
+        "time.end=" + ("0.6" if case == "bar" else "1e-3"),
+    ]
     subprocess.run([*base, "-o", str(tmp_path / "s")], check=True, capture_output=True)
-    subprocess.run([str(mpiexec), "-n", "2", *base, "-o", str(tmp_path / "p")], check=True,
-                   capture_output=True)
+    subprocess.run(
+        [str(mpiexec), "-n", "2", *base, "-o", str(tmp_path / "p")], check=True, capture_output=True
+    )
     h1, h2 = read_history(tmp_path / "s/history.csv"), read_history(tmp_path / "p/history.csv")
     assert json.loads((tmp_path / "p/summary.json").read_text())["mpi_size"] == 2
-    escale = max(np.max(np.abs(h1[c])) for c in ("total", "kinetic", "internal",
-                                                  "external_work"))
+    escale = max(np.max(np.abs(h1[c])) for c in ("total", "kinetic", "internal", "external_work"))
     vscale = max(np.max(np.abs(h1[c])) for c in h1 if c.startswith("probe_v"))
     for h in (h1, h2):  # a round-off diagnostic, not a result: both at round-off level
         assert np.max(h.pop("interface_velocity_jump")) <= 1e-12 * vscale
     for col in h1:
-        scale = escale if ("energy" in col or col in {
-            "kinetic", "internal", "external_work", "total", "damping_dissipated",
-            "contact_dissipated", "numerical_dissipated", "interface_dissipated",
-            "interface_work_physical", "kinetic_explicit", "internal_explicit",
-            "kinetic_implicit", "internal_implicit"}) else np.max(np.abs(h1[col]))
+        scale = (
+            escale
+            if (
+                "energy" in col
+                or col
+                in {
+                    "kinetic",
+                    "internal",
+                    "external_work",
+                    "total",
+                    "damping_dissipated",
+                    "contact_dissipated",
+                    "numerical_dissipated",
+                    "interface_dissipated",
+                    "interface_work_physical",
+                    "kinetic_explicit",
+                    "internal_explicit",
+                    "kinetic_implicit",
+                    "internal_implicit",
+                }
+            )
+            else np.max(np.abs(h1[col]))
+        )
         assert np.max(np.abs(h1[col] - h2[col])) <= 1e-10 * max(scale, 1e-300), col

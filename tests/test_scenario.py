@@ -39,7 +39,11 @@ def _write(tmp_path: Path, text: str) -> Path:
 
 # (replace this, with that, expected fragments of the message)
 BAD = [
-    ("E = 1.0", "Young = 1.0", ["material.Young", "unknown key", "allowed here: E, nu, rayleigh, rho"]),
+    (
+        "E = 1.0",
+        "Young = 1.0",
+        ["material.Young", "unknown key", "allowed here: E, nu, rayleigh, rho"],
+    ),
     ("E = 1.0", 'E = "steel"', ["material.E", "valid number", "'steel'"]),
     ("E = 1.0", "E = -2.0", ["material.E", "greater than 0", "-2.0"]),
     ("E = 1.0", "E = true", ["material.E", "valid number"]),

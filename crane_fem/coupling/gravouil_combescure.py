@@ -206,8 +206,10 @@ class CoupledIntegrator:
         I = self.I  # noqa: E741
         assert I is not None
         kin, pot = self._sum(
-            [0.5 * float(np.dot(I.v, I.mass_action(I.v))),
-             0.5 * float(np.dot(I.u, I.stiffness_action(I.u)))]
+            [
+                0.5 * float(np.dot(I.v, I.mass_action(I.v))),
+                0.5 * float(np.dot(I.u, I.stiffness_action(I.u))),
+            ]
         )
         return float(kin), float(pot)
 
@@ -236,31 +238,43 @@ class CoupledIntegrator:
             self.w_prev = E.stack.apply(E.v0)[: self.n_gamma]
         return self._record(lam, gaps, [])
 
-    def _record(self, lam: FloatArray, gaps: FloatArray, micro: list[tuple[float, bool]]
-                ) -> MacroRecord:
+    def _record(
+        self, lam: FloatArray, gaps: FloatArray, micro: list[tuple[float, bool]]
+    ) -> MacroRecord:
         e = dict(self.acc)
         e["kinetic"] = self._e_kin + self._i_kin
         e["internal"] = self._e_int + self._i_int
         e["kinetic_explicit"], e["internal_explicit"] = self._e_kin, self._e_int
         e["kinetic_implicit"], e["internal_implicit"] = self._i_kin, self._i_int
         e["total"] = (
-            e["kinetic"] + e["internal"] - e["external_work"] + e["damping_dissipated"]
-            + e["contact_dissipated"] + e["numerical_dissipated"] + e["interface_dissipated"]
+            e["kinetic"]
+            + e["internal"]
+            - e["external_work"]
+            + e["damping_dissipated"]
+            + e["contact_dissipated"]
+            + e["numerical_dissipated"]
+            + e["interface_dissipated"]
         )
         n_g = self.n_gamma
         E, I = self.E, self.I  # noqa: E741
         return MacroRecord(
-            self.n, self.n * self.dT, e,
-            E.u if E is not None else None, E.v_int if E is not None else None,
-            I.u if I is not None else None, I.v if I is not None else None,
-            lam[n_g:] if lam.size else np.zeros(0), gaps[n_g:] if gaps.size else np.zeros(0),
-            lam[:n_g] / self.dt if lam.size else np.zeros(0), micro,
+            self.n,
+            self.n * self.dT,
+            e,
+            E.u if E is not None else None,
+            E.v_int if E is not None else None,
+            I.u if I is not None else None,
+            I.v if I is not None else None,
+            lam[n_g:] if lam.size else np.zeros(0),
+            gaps[n_g:] if gaps.size else np.zeros(0),
+            lam[:n_g] / self.dt if lam.size else np.zeros(0),
+            micro,
         )
 
     # ------------------------------------------------------------------------------------
-    def _micro(self, j: int, t: float, wI0: FloatArray, wIf: FloatArray,
-               imposed: FloatArray | None) -> tuple[FloatArray, FloatArray, dict[str, float],
-                                                     FloatArray]:
+    def _micro(
+        self, j: int, t: float, wI0: FloatArray, wIf: FloatArray, imposed: FloatArray | None
+    ) -> tuple[FloatArray, FloatArray, dict[str, float], FloatArray]:
         """One explicit micro step; interface impulses solved (gc) or imposed (ph)."""
         E = self.E
         assert E is not None
@@ -302,8 +316,9 @@ class CoupledIntegrator:
         t1 = t0 + self.dT
         n_g = self.n_gamma
         micro: list[tuple[float, bool]] = []
-        e_local = {k: 0.0 for k in ("external_work", "damping_dissipated", "contact_work",
-                                    "link_work")}
+        e_local = {
+            k: 0.0 for k in ("external_work", "damping_dissipated", "contact_work", "link_work")
+        }
         gc_e = phys_e = 0.0
         lam = np.zeros(0)
         gaps = np.zeros(0)
@@ -363,13 +378,16 @@ class CoupledIntegrator:
             else:
                 link_i_loc = phys_i_loc = 0.0
             kin_old, pot_old = self._i_kin, self._i_int
-            red_i = self._sum([
-                self.dT * float(np.dot(vbar, 0.5 * (f0 + f1))),
-                self.dT * float(np.dot(vbar, 0.5 * (cv0 + cv1))),
-                link_i_loc, phys_i_loc,
-                0.5 * float(np.dot(I.v, I.mass_action(I.v))),
-                0.5 * float(np.dot(I.u, I.stiffness_action(I.u))),
-            ])
+            red_i = self._sum(
+                [
+                    self.dT * float(np.dot(vbar, 0.5 * (f0 + f1))),
+                    self.dT * float(np.dot(vbar, 0.5 * (cv0 + cv1))),
+                    link_i_loc,
+                    phys_i_loc,
+                    0.5 * float(np.dot(I.v, I.mass_action(I.v))),
+                    0.5 * float(np.dot(I.u, I.stiffness_action(I.u))),
+                ]
+            )
             w_ext, w_damp, link_i, phys_i = (float(x) for x in red_i[:4])
             self._i_kin, self._i_int = float(red_i[4]), float(red_i[5])
             self.acc["external_work"] += w_ext
@@ -416,8 +434,15 @@ class CoupledIntegrator:
         assert E is not None
         n_g, m = self.n_gamma, self.m
         zero = np.zeros_like(E.u)
-        probe = ExplicitCD(E.model, lambda t: zero, E.dt, zero, zero,
-                           _rows(E.stack, n_g), ContactSet.empty(E.model.comm))
+        probe = ExplicitCD(
+            E.model,
+            lambda t: zero,
+            E.dt,
+            zero,
+            zero,
+            _rows(E.stack, n_g),
+            ContactSet.empty(E.model.comm),
+        )
         Z = np.zeros((n_g, n_g))
         try:
             for k in range(n_g):
@@ -443,12 +468,21 @@ class CoupledIntegrator:
 def _rows(stack: ContactSet, n: int) -> ContactSet:
     """The first n rows of a stacked constraint set."""
     keep = stack.rows < n
-    return ContactSet(stack.comm, stack.g0[:n], stack.rows[keep], stack.dofs[keep],
-                      stack.coeffs[keep], stack.group[:n], stack.group_names[:1])
+    return ContactSet(
+        stack.comm,
+        stack.g0[:n],
+        stack.rows[keep],
+        stack.dofs[keep],
+        stack.coeffs[keep],
+        stack.group[:n],
+        stack.group_names[:1],
+    )
 
 
 def E_energy(E: ExplicitCD) -> list[float]:
     """Local shadow kinetic and internal energy of the explicit side after a micro step."""
     m = E.model
-    return [0.5 * float(np.dot(E.vh, m.mass * E.vh)),
-            0.5 * float(np.dot(E.u, E.ku)) + 0.5 * E.dt * float(np.dot(E.vh, E.ku))]
+    return [
+        0.5 * float(np.dot(E.vh, m.mass * E.vh)),
+        0.5 * float(np.dot(E.u, E.ku)) + 0.5 * E.dt * float(np.dot(E.vh, E.ku)),
+    ]

@@ -47,8 +47,9 @@ def constraint_set(
     )
 
 
-def build_interface(explicit: Subdomain, implicit: Subdomain) -> tuple[IntArray, ContactSet,
-                                                                       ContactSet]:
+def build_interface(
+    explicit: Subdomain, implicit: Subdomain
+) -> tuple[IntArray, ContactSet, ContactSet]:
     """Duplicated interface DOFs: constraint L_E V_E + L_I V_I = 0 (L_E = +1, L_I = −1).
 
     Interface vertices are the parent vertices on the boundary of both submeshes, minus clamped

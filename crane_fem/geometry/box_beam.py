@@ -43,7 +43,7 @@ def create_box_beam(comm: MPI.Comm, beam: BoxBeam) -> TaggedMesh:
         occ.fragment([(3, a)], [(3, b)])
         occ.synchronize()
         vols = gmsh.model.getEntities(3)
-        part = {groups.BEAM_PART_A: [], groups.BEAM_PART_B: []}
+        part: dict[str, list[int]] = {groups.BEAM_PART_A: [], groups.BEAM_PART_B: []}
         for dim, tag in vols:
             x = gmsh.model.occ.getCenterOfMass(dim, tag)[0]
             part[groups.BEAM_PART_A if x < beam.split else groups.BEAM_PART_B].append(tag)
@@ -60,7 +60,9 @@ def create_box_beam(comm: MPI.Comm, beam: BoxBeam) -> TaggedMesh:
         gmsh.option.setNumber("Mesh.CharacteristicLengthMax", beam.h)
         gmsh.option.setNumber("Mesh.Algorithm3D", 1)
         gmsh.model.mesh.generate(3)
-    partitioner = dolfinx.mesh.create_cell_partitioner(dolfinx.mesh.GhostMode.shared_facet, 2)
+    partitioner = dolfinx.mesh.create_cell_partitioner(  # type: ignore[call-arg]
+        dolfinx.mesh.GhostMode.shared_facet, 2
+    )
     data = dolfinx.io.gmsh.model_to_mesh(gmsh.model, comm, 0, gdim=3, partitioner=partitioner)
     if comm.rank == 0:
         gmsh.finalize()
