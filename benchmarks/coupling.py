@@ -13,8 +13,9 @@ import time
 import warnings
 from pathlib import Path
 
-import crane_fem  # noqa: F401  (MPI first)
 import matplotlib
+
+import crane_fem  # noqa: F401  (MPI first)
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -54,8 +55,12 @@ def main() -> None:
     rank0 = MPI.COMM_WORLD.rank == 0
     OUT.mkdir(parents=True, exist_ok=True)
     # Reference: monolithic CD on the same mesh with a 20× smaller step.
-    ref = run(bar(coupling={"method": "monolithic", "scheme": "cd-lagrange"},
-                  time={"end": 1.0, "dt_factor": 0.005}))
+    ref = run(
+        bar(
+            coupling={"method": "monolithic", "scheme": "cd-lagrange"},
+            time={"end": 1.0, "dt_factor": 0.005},
+        )
+    )
     rt, ru = ref.history["t"], ref.history["probe_u0"]
     factors = [0.8, 0.4, 0.2, 0.1, 0.05]
     m = 4
@@ -63,18 +68,29 @@ def main() -> None:
     for method in ("gc", "ph"):
         errs, dts = [], []
         for f in factors:
-            res = run(bar(subdomain=SUBS, coupling={"method": method, "ratio": m},
-                          newmark={"mass": "lumped"},
-                          time={"end": 1.0, "dt_factor": f}))
+            res = run(
+                bar(
+                    subdomain=SUBS,
+                    coupling={"method": method, "ratio": m},
+                    newmark={"mass": "lumped"},
+                    time={"end": 1.0, "dt_factor": f},
+                )
+            )
             h = res.history
-            errs.append(float(np.max(np.abs(h["probe_u0"] - np.interp(h["t"], rt, ru)))
-                              / np.max(np.abs(ru))))
+            errs.append(
+                float(
+                    np.max(np.abs(h["probe_u0"] - np.interp(h["t"], rt, ru))) / np.max(np.abs(ru))
+                )
+            )
             dts.append(res.summary["dt"])
         rows[method] = (dts, errs)
     if rank0:
         print(f"Time convergence, split bar (400 el.), m = {m}, probe = free right end:")
-        print("| method | " + " | ".join(f"Δt = {f}·Δt_crit" for f in factors)
-              + " | order (4 finest) |")
+        print(
+            "| method | "
+            + " | ".join(f"Δt = {f}·Δt_crit" for f in factors)
+            + " | order (4 finest) |"
+        )
         print("|---|" + "---|" * (len(factors) + 1))
         for method, (dts, errs) in rows.items():
             order = np.polyfit(np.log(dts[1:]), np.log(errs[1:]), 1)[0]
@@ -92,22 +108,35 @@ def main() -> None:
     # Interface dissipation vs m (pulse resolved by ≥ 40 macro steps at m = 10, 1000 el.).
     if rank0:
         print("\nInterface energy vs m (split bar, 1000 el., pulse 0.2 wide, Δt = 0.5 Δt_crit):")
-        print("| m | macro steps per pulse width | GC-measure dissipation / E0 "
-              "| physical interface work / E0 | min per macro step / E0 | peak error vs mono |")
+        print(
+            "| m | macro steps per pulse width | GC-measure dissipation / E0 "
+            "| physical interface work / E0 | min per macro step / E0 | peak error vs mono |"
+        )
         print("|---|---|---|---|---|---|")
-    mono = run(bar(model={"kind": "bar", "length": 1.0, "elements": 1000, "split": 0.4},
-                   coupling={"method": "monolithic", "scheme": "cd-lagrange"}))
+    mono = run(
+        bar(
+            model={"kind": "bar", "length": 1.0, "elements": 1000, "split": 0.4},
+            coupling={"method": "monolithic", "scheme": "cd-lagrange"},
+        )
+    )
     peak_ref = np.max(mono.history["probe_u0"])
     for mm in (1, 2, 10, 100, 1000):
-        res = run(bar(model={"kind": "bar", "length": 1.0, "elements": 1000, "split": 0.4},
-                      subdomain=SUBS, coupling={"method": "gc", "ratio": mm}))
+        res = run(
+            bar(
+                model={"kind": "bar", "length": 1.0, "elements": 1000, "split": 0.4},
+                subdomain=SUBS,
+                coupling={"method": "gc", "ratio": mm},
+            )
+        )
         h, s = res.history, res.summary
         e0 = h["total"][0]
         if rank0:
-            print(f"| {mm} | {0.2 / s['dT']:.1f} | {h['interface_energy_gc'][-1] / e0:.2e} | "
-                  f"{h['interface_work_physical'][-1] / e0:.2e} | "
-                  f"{s['interface_energy_gc_min_step'] / e0:.2e} | "
-                  f"{abs(np.max(h['probe_u0']) / peak_ref - 1):.2e} |")
+            print(
+                f"| {mm} | {0.2 / s['dT']:.1f} | {h['interface_energy_gc'][-1] / e0:.2e} | "
+                f"{h['interface_work_physical'][-1] / e0:.2e} | "
+                f"{s['interface_energy_gc_min_step'] / e0:.2e} | "
+                f"{abs(np.max(h['probe_u0']) / peak_ref - 1):.2e} |"
+            )
 
     # Impact in the explicit part: contact duration error vs m.
     if rank0:
@@ -115,13 +144,21 @@ def main() -> None:
         print("| m | contact duration − 2L/c (in h/c) | bound 2h/c + Δt (in h/c) |")
         print("|---|---|---|")
     for mm in (1, 2, 5, 10):
-        res = run(parse_scenario({
-            "name": "impact", "model": {"kind": "bar", "length": 1.0, "elements": 200,
-                                        "split": 0.5},
-            "material": {"E": 1.0, "rho": 1.0}, "initial": {"velocity": -1.0},
-            "contact": [{"type": "wall", "gap": 0.1}], "subdomain": SUBS,
-            "coupling": {"method": "gc", "ratio": mm},
-            "time": {"end": 2.4, "dt_factor": 0.9}, "output": {"xdmf": False}}))
+        res = run(
+            parse_scenario(
+                {
+                    "name": "impact",
+                    "model": {"kind": "bar", "length": 1.0, "elements": 200, "split": 0.5},
+                    "material": {"E": 1.0, "rho": 1.0},
+                    "initial": {"velocity": -1.0},
+                    "contact": [{"type": "wall", "gap": 0.1}],
+                    "subdomain": SUBS,
+                    "coupling": {"method": "gc", "ratio": mm},
+                    "time": {"end": 2.4, "dt_factor": 0.9},
+                    "output": {"xdmf": False},
+                }
+            )
+        )
         s = res.summary
         (a, b) = s["contact_interval_times"][0]
         if rank0:
@@ -129,17 +166,28 @@ def main() -> None:
 
     # 3D box beam: tip displacement error and wall time vs monolithic, side by side.
     beam = {
-        "name": "beam", "model": {"kind": "box_beam", "length": 1.0, "width": 0.1,
-                                  "height": 0.1, "split": 0.5, "h": 0.05},
+        "name": "beam",
+        "model": {
+            "kind": "box_beam",
+            "length": 1.0,
+            "width": 0.1,
+            "height": 0.1,
+            "split": 0.5,
+            "h": 0.05,
+        },
         "material": {"E": 2.1e11, "rho": 7800.0, "nu": 0.3},
         "loading": {"tip_traction": {"traction": [0.0, 0.0, -1e6], "duration": 2e-3}},
-        "time": {"end": 4e-3, "dt_factor": 0.9}, "output": {"xdmf": False},
+        "time": {"end": 4e-3, "dt_factor": 0.9},
+        "output": {"xdmf": False},
     }
-    beam_subs = [{"name": "root", "groups": ["part_a"], "scheme": "newmark"},
-                 {"name": "tip", "groups": ["part_b"], "scheme": "cd-lagrange"}]
+    beam_subs = [
+        {"name": "root", "groups": ["part_a"], "scheme": "newmark"},
+        {"name": "tip", "groups": ["part_b"], "scheme": "cd-lagrange"},
+    ]
     t0 = time.perf_counter()
-    mono = run(parse_scenario({**beam, "coupling": {"method": "monolithic",
-                                                    "scheme": "cd-lagrange"}}))
+    mono = run(
+        parse_scenario({**beam, "coupling": {"method": "monolithic", "scheme": "cd-lagrange"}})
+    )
     t_mono = time.perf_counter() - t0
     if rank0:
         print("\n3D box beam (h = 0.05, lumped mass on both sides), tip z-displacement:")
@@ -149,8 +197,16 @@ def main() -> None:
     ref_t, ref = mono.history["t"], mono.history["probe_u2"]
     for mm in (1, 3, 10, 30):
         t0 = time.perf_counter()
-        res = run(parse_scenario({**beam, "subdomain": beam_subs, "newmark": {"mass": "lumped"},
-                                  "coupling": {"method": "gc", "ratio": mm}}))
+        res = run(
+            parse_scenario(
+                {
+                    **beam,
+                    "subdomain": beam_subs,
+                    "newmark": {"mass": "lumped"},
+                    "coupling": {"method": "gc", "ratio": mm},
+                }
+            )
+        )
         wall = time.perf_counter() - t0
         h = res.history
         err = np.max(np.abs(h["probe_u2"] - np.interp(h["t"], ref_t, ref))) / np.max(np.abs(ref))
