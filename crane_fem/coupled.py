@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 
 import dolfinx
@@ -212,19 +211,17 @@ class CoupledSimulation:
         if self.I_sub is not None:
             u0, v0 = self._initial(self.I_sub)
             nm = sc.newmark
-            with warnings.catch_warnings():
-                warnings.simplefilter("always")
-                self.I_int = Newmark(
-                    self.I_sub.model,
-                    self._load(self.I_sub),
-                    self.dT,
-                    u0,
-                    v0,
-                    nm.beta,
-                    nm.gamma,
-                    li if coupled else None,
-                    consistent_mass=nm.mass == "consistent",
-                )
+            self.I_int = Newmark(
+                self.I_sub.model,
+                self._load(self.I_sub),
+                self.dT,
+                u0,
+                v0,
+                nm.beta,
+                nm.gamma,
+                li if coupled else None,
+                consistent_mass=nm.mass == "consistent",
+            )
         self.integrator = CoupledIntegrator(
             self.E_int,
             self.I_int,
