@@ -85,7 +85,7 @@ def read_at2(path: str | Path) -> Accelerogram:
         raise ScenarioError(f"{p}: header says NPTS={npts} but the file holds {values.size}")
     if not dt > 0.0:
         raise ScenarioError(f"{p}: DT must be positive, got {dt}")
-    return Accelerogram(dt * np.arange(npts), G * values, p.stem)
+    return Accelerogram(dt * np.arange(npts, dtype=np.float64), G * values, p.stem)
 
 
 def read_csv(path: str | Path, units: str = "m/s2") -> Accelerogram:
@@ -146,8 +146,8 @@ def synthetic(
         raise ScenarioError(
             "synthetic accelerogram: need duration, dt, pga > 0 and 0 < f_low < f_high < 1/(2 dt)"
         )
-    n = int(math.floor(duration / dt)) + 1
-    t = dt * np.arange(n)
+    n = math.floor(duration / dt) + 1
+    t = dt * np.arange(n, dtype=np.float64)
     rng = np.random.default_rng(seed)
     spec = np.fft.rfft(rng.standard_normal(n))
     f = np.fft.rfftfreq(n, dt)
