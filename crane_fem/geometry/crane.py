@@ -1,0 +1,277 @@
+"""Bi-girder overhead-crane mock-up (gmsh OpenCASCADE): bridge, rails, trolley on four wheels.
+
+Axes: x along the runway (end carriages), y along the span (girders), z up. The bridge (two end
+carriages, two girders on them, one rail on each girder) is one glued body; the trolley (frame +
+four wheel blocks) is a second body resting on the rails. Each wheel's bottom face and the
+matching patch imprinted on the rail top are distinct, coincident surfaces with identical meshes
+(gmsh periodic constraint), so the wheel/rail contact pairs are node-to-node pairs given by
+gmsh's node correspondence, not by coordinates. Explicit zones are the wheels plus the rail and
+girder material inside a box around each contact; the rest is implicit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import gmsh
+import numpy as np
+import numpy.typing as npt
+
+from crane_fem.errors import ScenarioError
+
+__all__ = ["CraneGeometry", "CraneMeshInfo", "build_crane_model"]
+
+
+@dataclass(frozen=True)
+class CraneGeometry:
+    """Dimensions in metres; ``size`` is the coarse element size, ``fine`` the one at contacts."""
+
+    span: float = 4.0
+    girder_spacing: float = 1.0
+    girder_width: float = 0.12
+    girder_height: float = 0.20
+    end_carriage_length: float = 1.6
+    end_carriage_width: float = 0.15
+    end_carriage_height: float = 0.15
+    rail_width: float = 0.05
+    rail_height: float = 0.03
+    trolley_position: float = 2.0
+    wheel_base: float = 0.6
+    wheel_width: float = 0.04
+    wheel_length: float = 0.08
+    wheel_height: float = 0.06
+    frame_overhang: float = 0.10
+    frame_length: float = 0.8
+    frame_thickness: float = 0.05
+    zone_margin: float = 0.15
+    size: float = 0.08
+    fine: float = 0.02
+
+    def validate(self) -> None:
+        """Raise ScenarioError naming the first parameter out of range (before any meshing)."""
+        positive = [k for k, v in self.__dict__.items() if k != "trolley_position" and v <= 0]
+        if positive:
+            raise ScenarioError(
+                f"geometry.{positive[0]} must be > 0, got {getattr(self, positive[0])}"
+            )
+        if self.wheel_width > self.rail_width:
+            raise ScenarioError(
+                f"geometry.wheel_width = {self.wheel_width} is wider than the rail "
+                f"(geometry.rail_width = {self.rail_width})"
+            )
+        if self.rail_width > self.girder_width:
+            raise ScenarioError("geometry.rail_width must not exceed geometry.girder_width")
+        half = 0.5 * max(self.wheel_base + self.wheel_length, self.frame_length)
+        if not half <= self.trolley_position <= self.span - half:
+            raise ScenarioError(
+                f"geometry.trolley_position = {self.trolley_position} puts the trolley off the "
+                f"girders (allowed: [{half:g}, {self.span - half:g}] for span {self.span})"
+            )
+        if self.end_carriage_length < self.girder_spacing + self.girder_width:
+            raise ScenarioError("geometry.end_carriage_length must span both girders")
+        if self.girder_spacing <= self.girder_width:
+            raise ScenarioError("geometry.girder_spacing must exceed geometry.girder_width")
+        if self.fine > self.size:
+            raise ScenarioError("geometry.fine must not exceed geometry.size")
+
+    @property
+    def rail_top(self) -> float:
+        return self.end_carriage_height + self.girder_height + self.rail_height
+
+    def wheel_centres(self) -> list[tuple[float, float]]:
+        """(x, y) of wheels 1–4: girder 1 (x < 0) rear/front, then girder 2."""
+        xs = (-0.5 * self.girder_spacing, 0.5 * self.girder_spacing)
+        ys = (
+            self.trolley_position - 0.5 * self.wheel_base,
+            self.trolley_position + 0.5 * self.wheel_base,
+        )
+        return [(x, y) for x in xs for y in ys]
+
+
+@dataclass
+class CraneMeshInfo:
+    """Names of the physical groups and the wheel/rail node pairs (gmsh node tags)."""
+
+    volume_groups: dict[str, int]
+    surface_groups: dict[str, int]
+    contact_pairs: list[tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]]
+
+
+def _box(x0: float, y0: float, z0: float, dx: float, dy: float, dz: float) -> int:
+    return gmsh.model.occ.addBox(x0, y0, z0, dx, dy, dz)
+
+
+def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
+    """Build and mesh the crane in the current gmsh session (rank 0 only; gmsh initialised).
+
+    Physical volume groups: ``bridge_implicit``, ``zone_1..4`` (rail + girder near each wheel),
+    ``trolley_frame``, ``wheel_1..4``. Surface groups: ``clamped`` (end-carriage end faces),
+    ``wheel_patch_k``, ``rail_patch_k``.
+    """
+    geo.validate()
+    occ = gmsh.model.occ
+    hc, hg, hr = geo.end_carriage_height, geo.girder_height, geo.rail_height
+    half_l = 0.5 * geo.end_carriage_length
+    bridge = []
+    for y in (0.0, geo.span - geo.end_carriage_width):
+        bridge.append(_box(-half_l, y, 0.0, geo.end_carriage_length, geo.end_carriage_width, hc))
+    for xc in (-0.5 * geo.girder_spacing, 0.5 * geo.girder_spacing):
+        bridge.append(_box(xc - 0.5 * geo.girder_width, 0.0, hc, geo.girder_width, geo.span, hg))
+        bridge.append(_box(xc - 0.5 * geo.rail_width, 0.0, hc + hg, geo.rail_width, geo.span, hr))
+    # Zone boxes around each contact, and imprint rectangles for the rail patches.
+    zt = geo.rail_top
+    m = geo.zone_margin
+    zones, imprints = [], []
+    for x, y in geo.wheel_centres():
+        zones.append(
+            _box(
+                x - 0.5 * geo.girder_width - 1e-3,
+                y - 0.5 * geo.wheel_length - m,
+                hc + hg - m,
+                geo.girder_width + 2e-3,
+                geo.wheel_length + 2 * m,
+                m + hr + 1e-3,
+            )
+        )
+        imprints.append(
+            occ.addRectangle(
+                x - 0.5 * geo.wheel_width,
+                y - 0.5 * geo.wheel_length,
+                zt,
+                geo.wheel_width,
+                geo.wheel_length,
+            )
+        )
+    tool = [(3, z) for z in zones] + [(2, r) for r in imprints]
+    occ.fragment([(3, b) for b in bridge], tool)
+    # Trolley: frame plate on four wheel blocks (one glued body, apart from the bridge).
+    frame_x0 = -0.5 * geo.girder_spacing - geo.frame_overhang
+    frame = _box(
+        frame_x0,
+        geo.trolley_position - 0.5 * geo.frame_length,
+        zt + geo.wheel_height,
+        geo.girder_spacing + 2 * geo.frame_overhang,
+        geo.frame_length,
+        geo.frame_thickness,
+    )
+    wheels = [
+        _box(
+            x - 0.5 * geo.wheel_width,
+            y - 0.5 * geo.wheel_length,
+            zt,
+            geo.wheel_width,
+            geo.wheel_length,
+            geo.wheel_height,
+        )
+        for x, y in geo.wheel_centres()
+    ]
+    occ.fragment([(3, frame)], [(3, w) for w in wheels])
+    occ.synchronize()
+
+    def com(dim: int, tag: int) -> npt.NDArray[np.float64]:
+        return np.array(occ.getCenterOfMass(dim, tag))
+
+    eps = 1e-6
+    vol_groups: dict[str, list[int]] = {"bridge_implicit": [], "trolley_frame": []}
+    for k in range(4):
+        vol_groups[f"zone_{k + 1}"] = []
+        vol_groups[f"wheel_{k + 1}"] = []
+    centres = geo.wheel_centres()
+    for _, tag in gmsh.model.getEntities(3):
+        c = com(3, tag)
+        if c[2] > zt + eps:  # trolley
+            hit = [
+                k
+                for k, (x, y) in enumerate(centres)
+                if abs(c[0] - x) < 0.5 * geo.wheel_width + eps
+                and abs(c[1] - y) < 0.5 * geo.wheel_length + eps
+                and c[2] < zt + geo.wheel_height
+            ]
+            vol_groups[f"wheel_{hit[0] + 1}" if hit else "trolley_frame"].append(tag)
+            continue
+        hit = [
+            k
+            for k, (x, y) in enumerate(centres)
+            if abs(c[0] - x) < 0.5 * geo.girder_width + 2e-3
+            and abs(c[1] - y) < 0.5 * geo.wheel_length + m + eps
+            and c[2] > hc + hg - m
+        ]
+        vol_groups[f"zone_{hit[0] + 1}" if hit else "bridge_implicit"].append(tag)
+    volume_groups = {}
+    for i, (name, tags) in enumerate(vol_groups.items(), start=1):
+        if not tags:
+            raise RuntimeError(f"crane geometry: no volume classified as {name}")
+        gmsh.model.addPhysicalGroup(3, tags, i, name)
+        volume_groups[name] = i
+
+    # Surfaces: clamped end faces, wheel bottoms and rail patches (coincident, distinct).
+    wheel_tags = {t for k in range(4) for t in vol_groups[f"wheel_{k + 1}"]}
+    surface_groups: dict[str, int] = {}
+    clamped = [t for _, t in gmsh.model.getEntities(2) if abs(abs(com(2, t)[0]) - half_l) < eps]
+    gmsh.model.addPhysicalGroup(2, clamped, 1, "clamped")
+    surface_groups["clamped"] = 1
+    pairs_geo = []
+    for k, (x, y) in enumerate(centres):
+        at = [
+            t
+            for _, t in gmsh.model.getEntitiesInBoundingBox(
+                x - 0.5 * geo.wheel_width - eps,
+                y - 0.5 * geo.wheel_length - eps,
+                zt - eps,
+                x + 0.5 * geo.wheel_width + eps,
+                y + 0.5 * geo.wheel_length + eps,
+                zt + eps,
+                2,
+            )
+        ]
+        wheel_face = [
+            t
+            for t in at
+            if any(
+                t in [s for _, s in gmsh.model.getBoundary([(3, w)], oriented=False)]
+                for w in wheel_tags
+            )
+        ]
+        rail_face = [t for t in at if t not in wheel_face]
+        if len(wheel_face) != 1 or len(rail_face) != 1:
+            raise RuntimeError(f"crane geometry: contact patch {k + 1} not found")
+        gmsh.model.addPhysicalGroup(2, wheel_face, 10 + k, f"wheel_patch_{k + 1}")
+        gmsh.model.addPhysicalGroup(2, rail_face, 20 + k, f"rail_patch_{k + 1}")
+        surface_groups[f"wheel_patch_{k + 1}"] = 10 + k
+        surface_groups[f"rail_patch_{k + 1}"] = 20 + k
+        pairs_geo.append((wheel_face[0], rail_face[0]))
+        identity = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
+        gmsh.model.mesh.setPeriodic(2, [wheel_face[0]], [rail_face[0]], identity)
+
+    # Graded sizes: fine within the zone boxes, coarse elsewhere.
+    field = gmsh.model.mesh.field
+    boxes = []
+    for x, y in centres:
+        b = field.add("Box")
+        field.setNumber(b, "VIn", geo.fine)
+        field.setNumber(b, "VOut", geo.size)
+        field.setNumber(b, "XMin", x - 0.5 * geo.girder_width)
+        field.setNumber(b, "XMax", x + 0.5 * geo.girder_width)
+        field.setNumber(b, "YMin", y - 0.5 * geo.wheel_length - m)
+        field.setNumber(b, "YMax", y + 0.5 * geo.wheel_length + m)
+        field.setNumber(b, "ZMin", hc + hg - m)
+        field.setNumber(b, "ZMax", zt + geo.wheel_height)
+        field.setNumber(b, "Thickness", m)
+        boxes.append(b)
+    fmin = field.add("Min")
+    field.setNumbers(fmin, "FieldsList", boxes)
+    field.setAsBackgroundMesh(fmin)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    gmsh.model.mesh.generate(3)
+
+    contact_pairs = []
+    for wheel_face, rail_face in pairs_geo:
+        _, nodes, master_nodes, _ = gmsh.model.mesh.getPeriodicNodes(
+            2, wheel_face, includeHighOrderNodes=False
+        )
+        contact_pairs.append(
+            (np.asarray(nodes, dtype=np.int64), np.asarray(master_nodes, dtype=np.int64))
+        )
+    return CraneMeshInfo(volume_groups, surface_groups, contact_pairs)
