@@ -267,7 +267,7 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
     gmsh.model.mesh.generate(3)
 
     contact_pairs = []
-    for wheel_face, rail_face in pairs_geo:
+    for wheel_face, _rail_face in pairs_geo:
         _, nodes, master_nodes, _ = gmsh.model.mesh.getPeriodicNodes(
             2, wheel_face, includeHighOrderNodes=False
         )
