@@ -16,6 +16,7 @@ import numpy.typing as npt
 from mpi4py import MPI
 from tqdm import tqdm
 
+from crane_fem.energy import BALANCE_TERMS
 from crane_fem.errors import UnstableRunError
 from crane_fem.integrators import CDLagrange, CDPenalty, MoreauJean, StepRecord, TimeIntegrator
 from crane_fem.io import HistoryWriter, XDMFSeries, write_summary
@@ -27,15 +28,7 @@ __all__ = ["RunResult", "Simulation", "run_coupled", "run_scenario"]
 
 FloatArray = npt.NDArray[np.float64]
 
-ENERGY_COLUMNS = [
-    "kinetic",
-    "internal",
-    "external_work",
-    "damping_dissipated",
-    "contact_dissipated",
-    "numerical_dissipated",
-    "total",
-]
+ENERGY_COLUMNS = [*BALANCE_TERMS, "total"]
 
 
 class Simulation:
@@ -111,6 +104,13 @@ class RunResult:
     history: dict[str, FloatArray] = field(default_factory=dict)
 
 
+def _progress(sc: Scenario, comm: MPI.Comm, progress: bool | None, total: int, unit: str) -> Any:
+    """tqdm bar on rank 0, shown after 2 s, off when stderr is not a terminal (unless forced)."""
+    show = progress if progress is not None else sc.output.progress
+    on = comm.rank == 0 and (sys.stderr.isatty() if show == "auto" else bool(show))
+    return tqdm(total=total, disable=not on, delay=2.0, mininterval=0.5, unit=unit, desc=sc.name)
+
+
 def _contact_intervals(times: list[float], active: list[bool]) -> list[tuple[float, float]]:
     """Maximal runs of consecutive steps with a non-zero contact impulse: (first, last) times."""
     out: list[tuple[float, float]] = []
@@ -157,8 +157,6 @@ def run_scenario(
     history: dict[str, list[float]] = {c: [] for c in columns}
     every = sc.output.every
     xdmf_every = sc.output.xdmf_every or max(1, sim.n_steps // 200)
-    show = progress if progress is not None else sc.output.progress
-    show_bar = comm.rank == 0 and (sys.stderr.isatty() if show == "auto" else bool(show))
 
     summary: dict[str, Any] = {
         "scenario": sc.name,
@@ -184,14 +182,7 @@ def run_scenario(
         if sc.output.xdmf
         else None
     )
-    bar = tqdm(
-        total=sim.n_steps,
-        disable=not show_bar,
-        delay=2.0,
-        mininterval=0.5,
-        unit="step",
-        desc=sc.name,
-    )
+    bar = _progress(sc, comm, progress, sim.n_steps, "step")
     try:
         with HistoryWriter(out / "history.csv", columns, comm) as writer:
             for rec in sim.records():
@@ -302,8 +293,6 @@ def run_coupled(
     columns += [f"probe_u{c}" for c in range(bs)] + [f"probe_v{c}" for c in range(bs)]
     columns += ["interface_force_norm", "interface_velocity_jump"]
     history: dict[str, list[float]] = {c: [] for c in columns}
-    show = progress if progress is not None else sc.output.progress
-    show_bar = comm.rank == 0 and (sys.stderr.isatty() if show == "auto" else bool(show))
     every = sc.output.every
     xdmf_every = sc.output.xdmf_every or max(1, sim.n_macro // 200)
     summary: dict[str, Any] = {
@@ -335,14 +324,7 @@ def run_coupled(
                         ),
                     )
                 )
-    bar = tqdm(
-        total=sim.n_macro,
-        disable=not show_bar,
-        delay=2.0,
-        mininterval=0.5,
-        unit="macro step",
-        desc=sc.name,
-    )
+    bar = _progress(sc, comm, progress, sim.n_macro, "macro step")
     micro: list[tuple[float, bool]] = []
     total0: float | None = None
     scale = max_drift = 0.0

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
-__all__ = ["EnergyBalance"]
+__all__ = ["BALANCE_TERMS", "EnergyBalance"]
 
 
 @dataclass
@@ -44,3 +44,7 @@ class EnergyBalance:
 
     def copy(self) -> EnergyBalance:
         return EnergyBalance(**{f.name: getattr(self, f.name) for f in fields(self)})
+
+
+# Column names of the balance terms, in history order (``total`` is derived from them).
+BALANCE_TERMS = [f.name for f in fields(EnergyBalance)]

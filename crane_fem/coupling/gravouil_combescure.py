@@ -26,6 +26,7 @@ import numpy as np
 import numpy.typing as npt
 
 from crane_fem.contact import ContactSet, solve_mixed_lcp
+from crane_fem.energy import BALANCE_TERMS
 from crane_fem.errors import CraneFemError
 from crane_fem.integrators.newmark import Newmark
 from crane_fem.model import LoadFunction, StructuralModel
@@ -145,12 +146,7 @@ class MacroRecord:
 
 
 ENERGY_KEYS = [
-    "kinetic",
-    "internal",
-    "external_work",
-    "damping_dissipated",
-    "contact_dissipated",
-    "numerical_dissipated",
+    *BALANCE_TERMS,
     "interface_dissipated",
     "interface_energy_gc",
     "interface_work_physical",
