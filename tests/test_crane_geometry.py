@@ -2,13 +2,14 @@
 
 import dataclasses
 
+import dolfinx.mesh
 import gmsh
 import numpy as np
 import pytest
 from conftest import COMM
 
 from crane_fem.errors import ScenarioError
-from crane_fem.geometry.crane import CraneGeometry, build_crane_model
+from crane_fem.geometry.crane import CraneGeometry, build_crane_model, create_crane_mesh
 
 
 @pytest.mark.parametrize(
@@ -54,3 +55,31 @@ def test_crane_mesh_groups_and_conforming_patches() -> None:
                 assert abs(pos[a][2] - top) < 1e-12
     finally:
         gmsh.finalize()
+
+
+@pytest.mark.gmsh
+def test_crane_distributed_mesh_contact_pairs() -> None:
+    """The wheel/rail pairs survive distribution: two distinct vertices at the same place,
+    found on whichever ranks own them (serial and mpiexec -n 2 alike)."""
+    geo = CraneGeometry(size=0.1, fine=0.03)
+    crane = create_crane_mesh(COMM, geo)
+    mesh = crane.tagged.mesh
+    assert crane.pairs.shape[1] == 2 and crane.pairs.shape[0] >= 16
+    assert set(np.unique(crane.wheel).tolist()) == {1, 2, 3, 4}
+    assert np.all(crane.pairs[:, 0] != crane.pairs[:, 1])
+    # Coordinates of the pair vertices, gathered from their owners.
+    mesh.topology.create_connectivity(0, mesh.topology.dim)
+    imap = mesh.topology.index_map(0)
+    n_own = imap.size_local
+    glob = np.asarray(imap.local_to_global(np.arange(n_own, dtype=np.int32)))
+    geom = dolfinx.mesh.entities_to_geometry(mesh, 0, np.arange(n_own, dtype=np.int32)).ravel()
+    xyz = mesh.geometry.x[geom]
+    mine = {int(g): xyz[i] for i, g in enumerate(glob) if g in set(crane.pairs.ravel().tolist())}
+    allpos = {k: v for part in COMM.allgather(mine) for k, v in part.items()}
+    top = geo.rail_top
+    for w, r in crane.pairs:
+        assert np.max(np.abs(allpos[int(w)] - allpos[int(r)])) < 1e-12
+        assert abs(allpos[int(w)][2] - top) < 1e-12
+    # Explicit-zone and wheel cells exist somewhere.
+    for name in ("zone_1", "wheel_4", "bridge_implicit"):
+        assert COMM.allreduce(crane.tagged.cells([name]).size) > 0

@@ -13,13 +13,24 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import dolfinx.io.gmsh
+import dolfinx.mesh
 import gmsh
 import numpy as np
 import numpy.typing as npt
+from mpi4py import MPI
 
 from crane_fem.errors import ScenarioError
+from crane_fem.geometry.tagged import TaggedMesh
 
-__all__ = ["CraneGeometry", "CraneMeshInfo", "build_crane_model"]
+__all__ = [
+    "CraneGeometry",
+    "CraneMesh",
+    "CraneMeshInfo",
+    "build_crane_model",
+    "create_crane_mesh",
+    "input_nodes_to_global_vertices",
+]
 
 
 @dataclass(frozen=True)
@@ -275,3 +286,78 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
             (np.asarray(nodes, dtype=np.int64), np.asarray(master_nodes, dtype=np.int64))
         )
     return CraneMeshInfo(volume_groups, surface_groups, contact_pairs)
+
+
+@dataclass
+class CraneMesh:
+    """The distributed crane mesh with its groups and wheel/rail contact vertex pairs.
+
+    ``pairs[k]`` = (wheel vertex, rail vertex) as global parent-mesh vertex ids; ``wheel[k]``
+    (1–4) tells which wheel the pair belongs to. Identical on every rank.
+    """
+
+    tagged: TaggedMesh
+    pairs: npt.NDArray[np.int64]
+    wheel: npt.NDArray[np.int64]
+
+
+def input_nodes_to_global_vertices(
+    mesh: dolfinx.mesh.Mesh, input_nodes: npt.NDArray[np.int64]
+) -> npt.NDArray[np.int64]:
+    """Global vertex ids of input (gmsh, 0-based) node indices of an affine P1 mesh (collective).
+
+    Uses ``geometry.input_global_indices`` (dolfinx keeps each node's input index) and the
+    vertex-to-geometry map; every rank returns the same array.
+    """
+    mesh.topology.create_connectivity(0, mesh.topology.dim)
+    n_v = mesh.topology.index_map(0).size_local + mesh.topology.index_map(0).num_ghosts
+    verts = np.arange(n_v, dtype=np.int32)
+    geom = dolfinx.mesh.entities_to_geometry(mesh, 0, verts).ravel()
+    inp = np.asarray(mesh.geometry.input_global_indices, dtype=np.int64)[geom]
+    glob = np.asarray(mesh.topology.index_map(0).local_to_global(verts), dtype=np.int64)
+    sel = np.isin(inp, input_nodes)
+    found = np.concatenate(mesh.comm.allgather(np.column_stack([inp[sel], glob[sel]])))
+    lookup = dict(zip(found[:, 0].tolist(), found[:, 1].tolist(), strict=False))
+    missing = [int(i) for i in input_nodes if int(i) not in lookup]
+    if missing:
+        raise RuntimeError(f"input nodes {missing[:5]} are not mesh vertices")
+    return np.array([lookup[int(i)] for i in input_nodes], dtype=np.int64)
+
+
+def create_crane_mesh(comm: MPI.Comm, geo: CraneGeometry) -> CraneMesh:
+    """Validate, mesh with gmsh on rank 0, distribute, and map the contact pairs (collective).
+
+    Raises:
+        ScenarioError: a geometry parameter out of range, on every rank, before meshing.
+    """
+    geo.validate()  # every rank checks the same parameters: the same error everywhere
+    info = None
+    if comm.rank == 0:
+        gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("crane")
+        info = build_crane_model(geo)
+    partitioner = dolfinx.mesh.create_cell_partitioner(  # type: ignore[call-arg]
+        dolfinx.mesh.GhostMode.shared_facet, 2
+    )
+    data = dolfinx.io.gmsh.model_to_mesh(gmsh.model, comm, 0, gdim=3, partitioner=partitioner)
+    if comm.rank == 0:
+        gmsh.finalize()
+    info = comm.bcast(info, root=0)
+    assert info is not None and data.cell_tags is not None and data.facet_tags is not None
+    # gmsh node tags are 1-based input indices (dolfinx.io.gmsh.extract_geometry).
+    wheel_nodes = np.concatenate([w for w, _ in info.contact_pairs]) - 1
+    rail_nodes = np.concatenate([r for _, r in info.contact_pairs]) - 1
+    which = np.concatenate(
+        [np.full(w.size, k + 1) for k, (w, _) in enumerate(info.contact_pairs)]
+    ).astype(np.int64)
+    pairs = np.column_stack(
+        [
+            input_nodes_to_global_vertices(data.mesh, wheel_nodes),
+            input_nodes_to_global_vertices(data.mesh, rail_nodes),
+        ]
+    )
+    tagged = TaggedMesh(
+        data.mesh, data.cell_tags, data.facet_tags, info.volume_groups, info.surface_groups
+    )
+    return CraneMesh(tagged, pairs, which)
