@@ -19,10 +19,12 @@ from crane_fem.coupling.interface import build_interface, constraint_set
 from crane_fem.errors import ScenarioError
 from crane_fem.geometry import TaggedMesh, create_box_beam, create_split_bar, groups
 from crane_fem.geometry.box_beam import BoxBeam
+from crane_fem.geometry.crane import CraneMesh, create_crane_mesh
+from crane_fem.loading import Accelerogram
 from crane_fem.integrators.newmark import Newmark
 from crane_fem.mesh import Segment
 from crane_fem.model import LoadFunction
-from crane_fem.scenario import BarModel, BoxBeamModel, Scenario
+from crane_fem.scenario import BarModel, BoxBeamModel, CraneModel, Scenario
 from crane_fem.stability import critical_time_step, max_frequency
 from crane_fem.subdomains import Subdomain, create_subdomain, global_ids
 
@@ -31,15 +33,35 @@ __all__ = ["CoupledSimulation", "create_tagged_mesh"]
 FloatArray = npt.NDArray[np.float64]
 
 
-def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh:
+def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh | CraneMesh:
     """The parent mesh of the scenario with its named groups (collective)."""
     mdl = sc.model
+    if isinstance(mdl, CraneModel):
+        return create_crane_mesh(comm, mdl.geometry())
     if isinstance(mdl, BoxBeamModel):
         return create_box_beam(comm, BoxBeam(mdl.length, mdl.width, mdl.height, mdl.split, mdl.h))
     assert isinstance(mdl, BarModel)
     x0 = next((c.gap for c in sc.contact if c.type == "wall"), 0.0)
     split = mdl.split if mdl.split is not None else mdl.length  # all cells "left"
     return create_split_bar(comm, Segment(x0, mdl.length, mdl.elements, mdl.area), split)
+
+
+def _ground_motion(record: str, scale: float) -> Accelerogram:
+    """A bundled record name or an .AT2 / .csv file, scaled."""
+    from crane_fem.loading import BUNDLED, bundled, read_at2, read_csv
+
+    if record in BUNDLED:
+        rec = bundled(record)
+    elif record.lower().endswith(".at2"):
+        rec = read_at2(record)
+    elif record.lower().endswith(".csv"):
+        rec = read_csv(record)
+    else:
+        raise ScenarioError(
+            f"loading.ground_motion.record: {record!r} is neither a bundled record "
+            f"({', '.join(BUNDLED)}) nor an .AT2/.csv file"
+        )
+    return rec.scaled(scale)
 
 
 def _cells_of(tagged: TaggedMesh, names: list[str]) -> npt.NDArray[np.int32]:
@@ -91,7 +113,9 @@ class CoupledSimulation:
     def __init__(self, sc: Scenario, comm: MPI.Comm) -> None:
         self.scenario = sc
         self.comm = comm
-        self.tagged = create_tagged_mesh(comm, sc)
+        made = create_tagged_mesh(comm, sc)
+        self.crane: CraneMesh | None = made if isinstance(made, CraneMesh) else None
+        self.tagged: TaggedMesh = made.tagged if isinstance(made, CraneMesh) else made
         mdl, mat = sc.model, sc.material
         cpl = sc.coupling
         all_groups = list(self.tagged.cell_groups)
@@ -106,7 +130,9 @@ class CoupledSimulation:
         self.method, self.ratio = method, ratio
 
         # Clamped vertices (global parent ids).
-        if isinstance(mdl, BoxBeamModel):
+        if isinstance(mdl, CraneModel):
+            clamp_local = self.tagged.facet_vertices("clamped")
+        elif isinstance(mdl, BoxBeamModel):
             clamp_local = self.tagged.facet_vertices(groups.BEAM_CLAMPED)
         elif mdl.clamp == "right":
             clamp_local = self.tagged.facet_vertices(groups.BAR_RIGHT_END)
@@ -195,7 +221,11 @@ class CoupledSimulation:
 
         # Contacts (explicit side), initial state and loads.
         contacts = ContactSet.empty(comm)
-        if sc.contact:
+        if self.crane is not None:
+            if self.E_sub is None:
+                raise ScenarioError("the crane's wheel/rail contacts need an explicit subdomain")
+            contacts = self._pair_contacts(self.E_sub, self.crane)
+        elif sc.contact:
             if self.E_sub is None:
                 raise ScenarioError("contact: needs an explicit (cd-lagrange) subdomain")
             contacts = self._wall_contacts(self.E_sub)
@@ -247,6 +277,33 @@ class CoupledSimulation:
             sub, left, 1.0, np.array([wall.gap]), [wall.label], np.zeros(1, dtype=np.int64)
         )
 
+    def _pair_contacts(self, sub: Subdomain, crane: CraneMesh) -> ContactSet:
+        """Vertical node-to-node contacts g = u_z(wheel) − u_z(rail) ≥ 0 (touching at t = 0)."""
+        pairs = crane.pairs
+        rows, dofs, coeffs = [], [], []
+        for side, coeff in ((0, 1.0), (1, -1.0)):
+            order = np.argsort(pairs[:, side])
+            sorted_v = pairs[order, side]
+            blocks, pos = sub.owned_dofs_of(sorted_v)
+            rows.append(order[pos])
+            dofs.append(blocks * sub.bs + 2)
+            coeffs.append(np.full(blocks.size, coeff))
+        have = self.comm.allreduce(sum(r.size for r in rows), op=MPI.SUM)
+        if have != 2 * pairs.shape[0]:
+            raise ScenarioError(
+                "the wheels and their rail zones must belong to explicit (cd-lagrange) subdomains"
+            )
+        names = [f"wheel_{k}" for k in range(1, 5)]
+        return ContactSet(
+            self.comm,
+            np.zeros(pairs.shape[0]),
+            np.concatenate(rows).astype(np.int64),
+            np.concatenate(dofs).astype(np.int64),
+            np.concatenate(coeffs),
+            (crane.wheel - 1).astype(np.int64),
+            names,
+        )
+
     def _initial(self, sub: Subdomain) -> tuple[FloatArray, FloatArray]:
         sc = self.scenario
         n_own = sub.model.n_owned
@@ -283,6 +340,15 @@ class CoupledSimulation:
         else:
             grav = (m.mass.reshape(-1, bs) * g[None, :bs]).ravel()
         grav[m.fixed] = 0.0
+        gm = sc.loading.ground_motion
+        if gm is not None:
+            record = _ground_motion(gm.record, gm.scale)
+            unit = np.zeros(m.n_owned)
+            d = np.asarray(gm.direction, dtype=np.float64)
+            d = d / np.linalg.norm(d)
+            unit = -(m.mass.reshape(-1, bs) * d[None, :bs]).ravel()  # −M ι, per unit a_g
+            unit[m.fixed] = 0.0
+            return lambda t: grav + record(t) * unit
         tip = sc.loading.tip_traction
         if tip is None:
             return lambda t: grav
@@ -297,12 +363,15 @@ class CoupledSimulation:
         return load
 
     def probe_vertices(self) -> npt.NDArray[np.int64]:
-        """Global ids of the probe: the bar's right end, or the beam's tip face."""
-        name = (
-            groups.BEAM_TIP
-            if isinstance(self.scenario.model, BoxBeamModel)
-            else groups.BAR_RIGHT_END
-        )
+        """Global ids of the probe: the bar's right end, the beam's tip face, or the crane's
+        wheel 1 contact face (wheel side)."""
+        mdl = self.scenario.model
+        if isinstance(mdl, CraneModel):
+            name = "wheel_patch_1"
+        elif isinstance(mdl, BoxBeamModel):
+            name = groups.BEAM_TIP
+        else:
+            name = groups.BAR_RIGHT_END
         return self.tagged.global_vertices(self.tagged.facet_vertices(name))
 
     def destroy(self) -> None:

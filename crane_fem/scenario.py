@@ -77,6 +77,36 @@ class BarModel(_Section):
         return ["left", "right"] if self.split is not None else []
 
 
+class CraneModel(_Section):
+    """Bi-girder overhead-crane mock-up (crane_fem.geometry.crane.CraneGeometry; any of its
+    dimensions may be given). Groups: ``bridge_implicit``, ``trolley_frame``, ``zone_1..4``,
+    ``wheel_1..4``; clamped end-carriage faces; four wheel/rail node-to-node contacts."""
+
+    kind: Literal["crane"]
+    span: PositiveFloat = 4.0
+    girder_spacing: PositiveFloat = 1.0
+    girder_width: PositiveFloat = 0.12
+    girder_height: PositiveFloat = 0.20
+    end_carriage_length: PositiveFloat = 1.6
+    rail_width: PositiveFloat = 0.05
+    trolley_position: float = 2.0
+    wheel_base: PositiveFloat = 0.6
+    wheel_width: PositiveFloat = 0.04
+    size: PositiveFloat = 0.08
+    fine: PositiveFloat = 0.02
+
+    @property
+    def groups(self) -> list[str]:
+        return ["bridge_implicit", "trolley_frame"] + [
+            f"{p}_{k}" for p in ("zone", "wheel") for k in range(1, 5)
+        ]
+
+    def geometry(self) -> Any:
+        from crane_fem.geometry.crane import CraneGeometry
+
+        return CraneGeometry(**self.model_dump(exclude={"kind"}))
+
+
 class BoxBeamModel(_Section):
     """3D box beam [0, L]×[0, W]×[0, H] (gmsh, two volumes split at x = ``split``), clamped at
     x = 0; cell groups ``part_a`` (x < split) and ``part_b``; tetrahedra of size ``h``."""
@@ -180,6 +210,19 @@ class Integrator(_Section):
         return 0.5 if self.theta is None else self.theta
 
 
+class GroundMotion(_Section):
+    """Seismic ground acceleration a_g(t) (relative formulation: body force −ρ a_g(t) direction).
+
+    ``record``: a bundled record name (``el_centro_1940_up``, ``el_centro_1940_180``,
+    ``el_centro_1940_270``) or a path to a PEER ``.AT2`` / ``.csv`` (t, a in m/s²) file;
+    ``scale`` multiplies it; ``direction`` is the unit vector of the shaking.
+    """
+
+    record: str
+    scale: float = 1.0
+    direction: Vector3 = [0.0, 0.0, 1.0]
+
+
 class TipTraction(_Section):
     """Half-sine traction pulse t(s) = traction sin(π s / duration) on the beam's tip face."""
 
@@ -192,6 +235,7 @@ class Loading(_Section):
 
     gravity: Vector3 = [0.0, 0.0, 0.0]
     tip_traction: TipTraction | None = None
+    ground_motion: GroundMotion | None = None
 
 
 class SubdomainSpec(_Section):
@@ -239,7 +283,7 @@ class Scenario(_Section):
     """A whole scenario file."""
 
     name: str = "scenario"
-    model: Annotated[BarModel | BoxBeamModel, Field(discriminator="kind")]
+    model: Annotated[BarModel | BoxBeamModel | CraneModel, Field(discriminator="kind")]
     material: Material
     initial: Initial = Initial()
     contact: list[Contact] = []
@@ -260,21 +304,29 @@ class Scenario(_Section):
     @model_validator(mode="after")
     def _subdomains(self) -> Scenario:
         mdl = self.model
-        if isinstance(mdl, BoxBeamModel):
+        if isinstance(mdl, BoxBeamModel | CraneModel):
             if not self.coupled_path:
                 raise ValueError(
-                    "model.kind 'box_beam' needs [[subdomain]] entries or "
+                    f"model.kind {mdl.kind!r} needs [[subdomain]] entries or "
                     "[coupling] method = 'monolithic'"
                 )
             if self.contact:
-                raise ValueError("contact: not available on model.kind 'box_beam'")
-        elif self.loading.tip_traction is not None:
+                raise ValueError(
+                    f"contact: not available on model.kind {mdl.kind!r} (the "
+                    "crane's wheel/rail contacts come with its geometry)"
+                )
+        if isinstance(mdl, CraneModel):
+            try:
+                mdl.geometry().validate()
+            except ScenarioError as exc:  # name the scenario key, not the dataclass field
+                raise ValueError(str(exc).replace("geometry.", "model.")) from None
+        if self.loading.tip_traction is not None and not isinstance(mdl, BoxBeamModel):
             raise ValueError("loading.tip_traction applies to model.kind 'box_beam' only")
         cpl = self.coupling
         if cpl is not None and cpl.method == "monolithic":
             if cpl.scheme is None:
                 raise ValueError("coupling.scheme is required by method 'monolithic'")
-            if cpl.scheme == "newmark" and self.contact:
+            if cpl.scheme == "newmark" and (self.contact or isinstance(mdl, CraneModel)):
                 raise ValueError(
                     "contact needs an explicit subdomain: coupling.scheme = "
                     "'newmark' cannot carry [[contact]]"
@@ -341,7 +393,7 @@ class Scenario(_Section):
         return self
 
 
-MODEL_KINDS = {"bar": BarModel, "box_beam": BoxBeamModel}
+MODEL_KINDS = {"bar": BarModel, "box_beam": BoxBeamModel, "crane": CraneModel}
 
 
 def _allowed_keys(section: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:

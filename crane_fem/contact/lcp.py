@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import numpy.typing as npt
 import scipy.linalg
@@ -52,13 +54,18 @@ def solve_lcp(
 
 
 def solve_mixed_lcp(
-    A: FloatArray, q: FloatArray, n_eq: int, active: npt.NDArray[np.bool_]
+    A: FloatArray,
+    q: FloatArray,
+    n_eq: int,
+    active: npt.NDArray[np.bool_],
+    solve_eq: Callable[[FloatArray], FloatArray] | None = None,
 ) -> FloatArray:
     """Solve A z + q = 0 on the first ``n_eq`` rows (z free) and 0 ≤ z ⟂ A z + q ≥ 0 on the
     ``active`` remaining rows (z = 0 on inactive ones), A symmetric positive definite.
 
-    The free block is eliminated exactly (Cholesky); the Schur complement, symmetric positive
-    definite, gives a plain LCP solved by :func:`solve_lcp`. Not collective.
+    The free block is eliminated exactly (Cholesky, or ``solve_eq`` = its inverse applied to a
+    vector or matrix when the caller has it pre-factored); the Schur complement, symmetric
+    positive definite, gives a plain LCP solved by :func:`solve_lcp`. Not collective.
     """
     z = np.zeros_like(q)
     c = n_eq + np.flatnonzero(active)
@@ -68,15 +75,20 @@ def solve_mixed_lcp(
         z[c] = solve_lcp(sub, q[c], np.ones(c.size, dtype=bool), diag)
         return z
     e = np.arange(n_eq)
-    factor = scipy.linalg.cho_factor(A[np.ix_(e, e)])
+    if solve_eq is None:
+        factor = scipy.linalg.cho_factor(A[np.ix_(e, e)])
+
+        def solve_eq(x: FloatArray) -> FloatArray:
+            return np.asarray(scipy.linalg.cho_solve(factor, x))
+
     if c.size:
         Aec = A[np.ix_(e, c)]
-        Y = scipy.linalg.cho_solve(factor, Aec)
+        Y = solve_eq(Aec)
         S = A[np.ix_(c, c)] - Aec.T @ Y
         S = 0.5 * (S + S.T)
         qs = q[c] - Y.T @ q[e]
         z[c] = solve_lcp(S, qs, np.ones(c.size, dtype=bool), diagonal=False)
-        z[e] = -scipy.linalg.cho_solve(factor, q[e] + Aec @ z[c])
+        z[e] = -solve_eq(q[e] + Aec @ z[c])
     else:
-        z[e] = -scipy.linalg.cho_solve(factor, q[e])
+        z[e] = -solve_eq(q[e])
     return z
