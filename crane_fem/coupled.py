@@ -20,8 +20,8 @@ from crane_fem.errors import ScenarioError
 from crane_fem.geometry import TaggedMesh, create_box_beam, create_split_bar, groups
 from crane_fem.geometry.box_beam import BoxBeam
 from crane_fem.geometry.crane import CraneMesh, create_crane_mesh
-from crane_fem.loading import Accelerogram
 from crane_fem.integrators.newmark import Newmark
+from crane_fem.loading import Accelerogram
 from crane_fem.mesh import Segment
 from crane_fem.model import LoadFunction
 from crane_fem.scenario import BarModel, BoxBeamModel, CraneModel, Scenario
