@@ -83,3 +83,26 @@ def test_crane_distributed_mesh_contact_pairs() -> None:
     # Explicit-zone and wheel cells exist somewhere.
     for name in ("zone_1", "wheel_4", "bridge_implicit"):
         assert COMM.allreduce(crane.tagged.cells([name]).size) > 0
+
+
+@pytest.mark.gmsh
+@pytest.mark.slow
+def test_crane_scenario_runs_coupled_with_wheel_contacts(shared_tmp) -> None:
+    """Smoke test of the crane pathway (issue 4, work in progress): a few macro steps of the
+    quick crane demo under gravity; the coupled balance closes, the four wheel contacts are
+    active (the trolley's weight presses them from t = 0) and never pull."""
+    from pathlib import Path
+
+    from conftest import run
+
+    from crane_fem.scenario import load_scenario
+
+    demo = Path(__file__).parent.parent / "demos" / "crane_quick.toml"
+    sc = load_scenario(demo, ["time.end=3e-5", "output.xdmf=false"])
+    res = run(sc, shared_tmp)
+    s, h = res.summary, res.history
+    assert s["interface_dofs"] > 0 and s["energy_balance_error"] <= 1e-10
+    assert s["contact_intervals"] >= 1
+    for k in range(1, 5):
+        assert np.all(h[f"force_wheel_{k}"] >= 0.0)
+    assert np.max(sum(h[f"force_wheel_{k}"] for k in range(1, 5))) > 0.0
