@@ -154,7 +154,12 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
             )
         )
     tool = [(3, z) for z in zones] + [(2, r) for r in imprints]
-    occ.fragment([(3, b) for b in bridge], tool)
+    _, children = occ.fragment([(3, b) for b in bridge], tool)
+    # Keep only the pieces of the bridge: the parts of the zone boxes outside it are air.
+    keep = {dt for kids in children[: len(bridge)] for dt in kids if dt[0] == 3}
+    air = [dt for dt in occ.getEntities(3) if dt not in keep]
+    if air:
+        occ.remove(air, recursive=True)
     # Trolley: frame plate on four wheel blocks (one glued body, apart from the bridge).
     frame_x0 = -0.5 * geo.girder_spacing - geo.frame_overhang
     frame = _box(
