@@ -292,6 +292,14 @@ def run_coupled(
     columns += [f"gap_{g}" for g in groups_c] + [f"force_{g}" for g in groups_c]
     columns += [f"probe_u{c}" for c in range(bs)] + [f"probe_v{c}" for c in range(bs)]
     columns += ["interface_force_norm", "interface_velocity_jump"]
+    # Crane: one wheel/rail node pair per wheel (the first pair of each patch), vertical
+    # displacement and velocity on both sides (the paper's Figs. 5–6).
+    pair_probe: list[tuple[int, int, int]] = []
+    if sim.crane is not None:
+        for k in range(1, 5):
+            i = int(np.flatnonzero(sim.crane.wheel == k)[0])
+            pair_probe.append((k, int(sim.crane.pairs[i, 0]), int(sim.crane.pairs[i, 1])))
+            columns += [f"wheel{k}_{side}_{q}" for side in ("wheel", "rail") for q in ("uz", "vz")]
     history: dict[str, list[float]] = {c: [] for c in columns}
     every = sc.output.every
     xdmf_every = sc.output.xdmf_every or max(1, sim.n_macro // 200)
@@ -397,6 +405,21 @@ def run_coupled(
                             )
                         )
                     row["interface_velocity_jump"] = jump
+                    if pair_probe:
+                        assert sim.E_sub is not None and rec.explicit_u is not None
+                        assert rec.explicit_v is not None
+                        ids = np.array([v for _, w, r in pair_probe for v in (w, r)])
+                        order = np.argsort(ids)
+                        blocks, pos = sim.E_sub.owned_dofs_of(ids[order])
+                        vals = np.zeros((ids.size, 2))
+                        dz = blocks * sim.E_sub.bs + 2
+                        vals[order[pos], 0] = rec.explicit_u[dz]
+                        vals[order[pos], 1] = rec.explicit_v[dz]
+                        vals = comm.allreduce(vals, op=MPI.SUM)
+                        for n_p, (k, _, _) in enumerate(pair_probe):
+                            for s_i, side in enumerate(("wheel", "rail")):
+                                row[f"wheel{k}_{side}_uz"] = float(vals[2 * n_p + s_i, 0])
+                                row[f"wheel{k}_{side}_vz"] = float(vals[2 * n_p + s_i, 1])
                     writer.write(row)
                     for c in columns:
                         history[c].append(row[c])

@@ -106,3 +106,9 @@ def test_crane_scenario_runs_coupled_with_wheel_contacts(shared_tmp) -> None:
     for k in range(1, 5):
         assert np.all(h[f"force_wheel_{k}"] >= 0.0)
     assert np.max(sum(h[f"force_wheel_{k}"] for k in range(1, 5))) > 0.0
+    # Node-pair histories: velocity-level contact lets a pair interpenetrate by at most one
+    # step of approach, Δt × the largest wheel speed (here the pairs stay together: 0).
+    for k in range(1, 5):
+        gap = h[f"wheel{k}_wheel_uz"] - h[f"wheel{k}_rail_uz"]
+        vmax = np.max(np.abs(h[f"wheel{k}_wheel_vz"]))
+        assert vmax > 0.0 and np.all(gap >= -s["dt"] * vmax)
