@@ -280,6 +280,9 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    # Netgen's optimiser removes the worst slivers: the explicit step is set by them
+    # (measured on the quick crane: Δt_crit 8.0e-7 -> 1.2e-6 s).
+    gmsh.option.setNumber("Mesh.OptimizeNetgen", 1)
     gmsh.model.mesh.generate(3)
 
     contact_pairs = []
