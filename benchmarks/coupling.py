@@ -23,7 +23,7 @@ import numpy as np
 from mpi4py import MPI
 
 from crane_fem.driver import run_scenario
-from crane_fem.scenario import parse_scenario
+from crane_fem.scenario import load_scenario, parse_scenario
 
 OUT = Path("benchmarks/results")
 SUBS = [
@@ -165,29 +165,10 @@ def main() -> None:
             print(f"| {mm} | {(b - a - 2.0) * 200:.2f} | {(2 / 200 + s['dt']) * 200:.2f} |")
 
     # 3D box beam: tip displacement error and wall time vs monolithic, side by side.
-    beam = {
-        "name": "beam",
-        "model": {
-            "kind": "box_beam",
-            "length": 1.0,
-            "width": 0.1,
-            "height": 0.1,
-            "split": 0.5,
-            "h": 0.05,
-        },
-        "material": {"E": 2.1e11, "rho": 7800.0, "nu": 0.3},
-        "loading": {"tip_traction": {"traction": [0.0, 0.0, -1e6], "duration": 2e-3}},
-        "time": {"end": 4e-3, "dt_factor": 0.9},
-        "output": {"xdmf": False},
-    }
-    beam_subs = [
-        {"name": "root", "groups": ["part_a"], "scheme": "newmark"},
-        {"name": "tip", "groups": ["part_b"], "scheme": "cd-lagrange"},
-    ]
+    beam = Path("demos/box_beam.toml")  # lumped mass on both sides
+    monolithic = ["coupling.method='monolithic'", "coupling.scheme='cd-lagrange'"]
     t0 = time.perf_counter()
-    mono = run(
-        parse_scenario({**beam, "coupling": {"method": "monolithic", "scheme": "cd-lagrange"}})
-    )
+    mono = run(load_scenario(beam, ["output.xdmf=false", *monolithic]))
     t_mono = time.perf_counter() - t0
     if rank0:
         print("\n3D box beam (h = 0.05, lumped mass on both sides), tip z-displacement:")
@@ -197,16 +178,7 @@ def main() -> None:
     ref_t, ref = mono.history["t"], mono.history["probe_u2"]
     for mm in (1, 3, 10, 30):
         t0 = time.perf_counter()
-        res = run(
-            parse_scenario(
-                {
-                    **beam,
-                    "subdomain": beam_subs,
-                    "newmark": {"mass": "lumped"},
-                    "coupling": {"method": "gc", "ratio": mm},
-                }
-            )
-        )
+        res = run(load_scenario(beam, ["output.xdmf=false", f"coupling.ratio={mm}"]))
         wall = time.perf_counter() - t0
         h = res.history
         err = np.max(np.abs(h["probe_u2"] - np.interp(h["t"], ref_t, ref))) / np.max(np.abs(ref))

@@ -64,10 +64,6 @@ def _ground_motion(record: str, scale: float) -> Accelerogram:
     return rec.scaled(scale)
 
 
-def _cells_of(tagged: TaggedMesh, names: list[str]) -> npt.NDArray[np.int32]:
-    return tagged.cells(names)
-
-
 @dataclass
 class _Spec:
     name: str
@@ -154,7 +150,7 @@ class CoupledSimulation:
                 self.tagged,
                 "+".join(self.explicit_names),
                 "cd-lagrange",
-                _cells_of(self.tagged, names),
+                self.tagged.cells(names),
                 mat.E,
                 mat.nu,
                 mat.rho,
@@ -169,7 +165,7 @@ class CoupledSimulation:
                 self.tagged,
                 implicit_specs[0].name,
                 "newmark",
-                _cells_of(self.tagged, implicit_specs[0].groups),
+                self.tagged.cells(implicit_specs[0].groups),
                 mat.E,
                 mat.nu,
                 mat.rho,
@@ -180,15 +176,10 @@ class CoupledSimulation:
             )
 
         # Step sizes: Δt from the explicit subdomain's own critical step.
-        self.dt_critical = math.inf
-        if self.E_sub is not None:
-            om = max_frequency(self.E_sub.model)
-            self.dt_critical = critical_time_step(om, *rayleigh)
-        else:
-            # Monolithic Newmark: dt_factor refers to the explicit limit of the same mesh.
-            assert self.I_sub is not None
-            om = max_frequency(self.I_sub.model)
-            self.dt_critical = critical_time_step(om, *rayleigh)
+        # (Monolithic Newmark: dt_factor refers to the explicit limit of the same mesh.)
+        step_sub = self.E_sub if self.E_sub is not None else self.I_sub
+        assert step_sub is not None
+        self.dt_critical = critical_time_step(max_frequency(step_sub.model), *rayleigh)
         if sc.time.dt is not None:
             self.dt = sc.time.dt
             if self.E_sub is not None and self.dt > self.dt_critical:

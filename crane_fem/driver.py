@@ -111,6 +111,30 @@ def _progress(sc: Scenario, comm: MPI.Comm, progress: bool | None, total: int, u
     return tqdm(total=total, disable=not on, delay=2.0, mininterval=0.5, unit=unit, desc=sc.name)
 
 
+def _finish_summary(
+    summary: dict[str, Any],
+    out: Path,
+    comm: MPI.Comm,
+    t_wall: float,
+    times: list[float],
+    active: list[bool],
+    max_drift: float,
+    scale: float,
+) -> None:
+    """Add cost, energy closure and contact intervals, then write summary.json (collective)."""
+    intervals = _contact_intervals(times, active)
+    summary.update(
+        {
+            "wall_time_s": comm.allreduce(time.perf_counter() - t_wall, op=MPI.MAX),
+            "energy_balance_error": max_drift / scale if scale > 0 else 0.0,
+            "energy_balance_error_abs": max_drift,
+            "contact_intervals": len(intervals),
+            "contact_interval_times": intervals[:100],
+        }
+    )
+    write_summary(out / "summary.json", summary, comm)
+
+
 def _contact_intervals(times: list[float], active: list[bool]) -> list[tuple[float, float]]:
     """Maximal runs of consecutive steps with a non-zero contact impulse: (first, last) times."""
     out: list[tuple[float, float]] = []
@@ -230,18 +254,8 @@ def run_scenario(
         bar.close()
         if xdmf is not None:
             xdmf.close()
-        intervals = _contact_intervals(times, active)
-        summary.update(
-            {
-                "steps_done": len(times) - 1,
-                "wall_time_s": comm.allreduce(time.perf_counter() - t_wall, op=MPI.MAX),
-                "energy_balance_error": max_drift / scale if scale > 0 else 0.0,
-                "energy_balance_error_abs": max_drift,
-                "contact_intervals": len(intervals),
-                "contact_interval_times": intervals[:100],
-            }
-        )
-        write_summary(out / "summary.json", summary, comm)
+        summary["steps_done"] = len(times) - 1
+        _finish_summary(summary, out, comm, t_wall, times, active, max_drift, scale)
         sim.destroy()
         comm.barrier()
     arrays = {c: np.asarray(v, dtype=np.float64) for c, v in history.items()}
@@ -444,21 +458,13 @@ def run_coupled(
         bar.close()
         for _, w in writers:
             w.close()
-        intervals = _contact_intervals([t for t, _ in micro], [a for _, a in micro])
-        summary.update(
-            {
-                "steps_done": round(history["t"][-1] / sim.dT) if history["t"] else 0,
-                "wall_time_s": comm.allreduce(time.perf_counter() - t_wall, op=MPI.MAX),
-                "energy_balance_error": max_drift / scale if scale > 0 else 0.0,
-                "energy_balance_error_abs": max_drift,
-                "interface_energy_gc_min_step": ifd_min_step
-                if math.isfinite(ifd_min_step)
-                else 0.0,
-                "contact_intervals": len(intervals),
-                "contact_interval_times": intervals[:100],
-            }
+        summary["steps_done"] = round(history["t"][-1] / sim.dT) if history["t"] else 0
+        summary["interface_energy_gc_min_step"] = (
+            ifd_min_step if math.isfinite(ifd_min_step) else 0.0
         )
-        write_summary(out / "summary.json", summary, comm)
+        times = [t for t, _ in micro]
+        active = [a for _, a in micro]
+        _finish_summary(summary, out, comm, t_wall, times, active, max_drift, scale)
         sim.destroy()
         comm.barrier()
     return RunResult(summary, {c: np.asarray(v, dtype=np.float64) for c, v in history.items()})
