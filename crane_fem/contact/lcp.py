@@ -9,7 +9,7 @@ import numpy.typing as npt
 import scipy.linalg
 import scipy.optimize
 
-__all__ = ["solve_lcp", "solve_mixed_lcp"]
+__all__ = ["solve_lcp", "solve_mixed_lcp", "solve_mixed_lcp_blocks"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -67,28 +67,64 @@ def solve_mixed_lcp(
     vector or matrix when the caller has it pre-factored); the Schur complement, symmetric
     positive definite, gives a plain LCP solved by :func:`solve_lcp`. Not collective.
     """
-    z = np.zeros_like(q)
-    c = n_eq + np.flatnonzero(active)
     if n_eq == 0:
+        z = np.zeros_like(q)
+        c = np.flatnonzero(active)
         sub = A[np.ix_(c, c)]
         diag = bool(np.all(sub == np.diag(np.diag(sub))))
         z[c] = solve_lcp(sub, q[c], np.ones(c.size, dtype=bool), diag)
         return z
-    e = np.arange(n_eq)
     if solve_eq is None:
-        factor = scipy.linalg.cho_factor(A[np.ix_(e, e)])
+        factor = scipy.linalg.cho_factor(A[:n_eq, :n_eq])
 
         def solve_eq(x: FloatArray) -> FloatArray:
             return np.asarray(scipy.linalg.cho_solve(factor, x))
 
-    if c.size:
-        Aec = A[np.ix_(e, c)]
-        Y = solve_eq(Aec)
-        S = A[np.ix_(c, c)] - Aec.T @ Y
+    z_e, z_c = solve_mixed_lcp_blocks(
+        solve_eq, A[:n_eq, n_eq:], A[n_eq:, n_eq:], q[:n_eq], q[n_eq:], active
+    )
+    return np.concatenate([z_e, z_c])
+
+
+def solve_mixed_lcp_blocks(
+    solve_eq: Callable[[FloatArray], FloatArray],
+    A_ec: FloatArray,
+    A_cc: FloatArray,
+    q_e: FloatArray,
+    q_c: FloatArray,
+    active: npt.NDArray[np.bool_],
+    cc_diagonal: bool | None = None,
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`solve_mixed_lcp` given by blocks, the equality block only through ``solve_eq``.
+
+    Only the active columns of ``A_ec`` that are not zero are passed to ``solve_eq`` (a
+    contact point sharing no DOF with the equality rows costs nothing), so n_e × n_e work is
+    done once per call plus once per coupled active contact. ``cc_diagonal`` may tell that
+    ``A_cc`` is diagonal (checked otherwise). Not collective.
+
+    Returns:
+        ``(z_e, z_c)``.
+    """
+    z_c = np.zeros_like(q_c)
+    z_e = -solve_eq(q_e)
+    c = np.flatnonzero(active)
+    if c.size == 0:
+        return z_e, z_c
+    Aec = A_ec[:, c]
+    coupled = np.flatnonzero(np.any(Aec != 0.0, axis=0))
+    S = A_cc[np.ix_(c, c)]
+    qs = q_c[c] + Aec.T @ z_e
+    if coupled.size:
+        Y = solve_eq(Aec[:, coupled])
+        S = S.copy()
+        S[:, coupled] -= Aec.T @ Y
         S = 0.5 * (S + S.T)
-        qs = q[c] - Y.T @ q[e]
-        z[c] = solve_lcp(S, qs, np.ones(c.size, dtype=bool), diagonal=False)
-        z[e] = -solve_eq(q[e] + Aec @ z[c])
+        diag = False
+    elif cc_diagonal is not None:
+        diag = cc_diagonal
     else:
-        z[e] = -solve_eq(q[e])
-    return z
+        diag = bool(np.all(S == np.diag(np.diag(S))))
+    z_c[c] = solve_lcp(S, qs, np.ones(c.size, dtype=bool), diag)
+    if coupled.size:
+        z_e -= solve_eq(Aec @ z_c[c])
+    return z_e, z_c

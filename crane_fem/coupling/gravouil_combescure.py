@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from crane_fem.contact import ContactSet, solve_mixed_lcp
+from crane_fem.contact import ContactSet, solve_mixed_lcp, solve_mixed_lcp_blocks
 from crane_fem.energy import BALANCE_TERMS
 from crane_fem.errors import CraneFemError
 from crane_fem.integrators.newmark import Newmark
@@ -206,6 +206,9 @@ class CoupledIntegrator:
         E, I = self.E, self.I  # noqa: E741
         assert E is not None and I is not None
         n_g = self.n_gamma
+        self._W_ec = E.W[:n_g, n_g:]
+        self._W_cc = E.W[n_g:, n_g:]
+        self._cc_diagonal = bool(np.all(self._W_cc == np.diag(np.diag(self._W_cc))))
         Wee = E.W[:n_g, :n_g]
         d = np.diag(Wee).copy()
         if np.any(Wee != np.diag(d)) or np.any(d <= 0.0):
@@ -320,10 +323,13 @@ class CoupledIntegrator:
             wI = (1.0 - j / m) * wI0 + (j / m) * wIf
             q[:n_g] = (fr["l_old"][:n_g] + fr["q"][:n_g]) + 2.0 * wI
             assert self.I is not None
-        if n_g and imposed is None and solver is not None and not np.any(active):
-            # No closed contact: the interface rows alone, with the diagonalised operator.
-            lam = np.zeros(E.stack.p)
-            lam[:n_g] = -solver(q[:n_g])
+        if n_g and imposed is None and solver is not None:
+            # Interface rows eliminated with the diagonalised operator; the contact rows
+            # (their Schur complement) solved as an LCP.
+            lam = np.empty(E.stack.p)
+            lam[:n_g], lam[n_g:] = solve_mixed_lcp_blocks(
+                solver, self._W_ec, self._W_cc, q[:n_g], q[n_g:], active, self._cc_diagonal
+            )
         elif n_g and imposed is None:
             assert self.I is not None
             A = E.W.copy()
