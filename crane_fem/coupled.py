@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import dolfinx
@@ -24,7 +25,8 @@ from crane_fem.integrators.newmark import Newmark
 from crane_fem.loading import Accelerogram
 from crane_fem.mesh import Segment
 from crane_fem.model import LoadFunction
-from crane_fem.scenario import BarModel, BoxBeamModel, CraneModel, Scenario
+from crane_fem.preload import Preload, static_preload
+from crane_fem.scenario import BarModel, BoxBeamModel, CraneModel, GroundMotion, Scenario
 from crane_fem.stability import critical_time_step, max_frequency
 from crane_fem.subdomains import Subdomain, create_subdomain, global_ids
 
@@ -44,6 +46,23 @@ def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh | CraneMesh:
     x0 = next((c.gap for c in sc.contact if c.type == "wall"), 0.0)
     split = mdl.split if mdl.split is not None else mdl.length  # all cells "left"
     return create_split_bar(comm, Segment(x0, mdl.length, mdl.elements, mdl.area), split)
+
+
+def _ground_motion_at(gm: GroundMotion) -> Callable[[float], float]:
+    """a_g at run time t: the record from ``gm.start`` on, tapered in over ``gm.taper``."""
+    record = _ground_motion(gm.record, gm.scale)
+    start, taper = gm.start, gm.taper
+    if start >= record.duration:
+        raise ScenarioError(
+            f"loading.ground_motion.start = {start} s is past the end of the record "
+            f"({record.duration:g} s)"
+        )
+
+    def a_g(t: float) -> float:
+        ramp = 0.5 - 0.5 * math.cos(math.pi * t / taper) if t < taper else 1.0
+        return ramp * record(start + t)
+
+    return a_g
 
 
 def _ground_motion(record: str, scale: float) -> Accelerogram:
@@ -116,8 +135,7 @@ class CoupledSimulation:
         cpl = sc.coupling
         all_groups = list(self.tagged.cell_groups)
         if cpl is not None and cpl.method == "monolithic":
-            assert cpl.scheme is not None
-            specs = [_Spec("all", cpl.scheme, all_groups)]
+            specs = [_Spec("all", cpl.monolithic_scheme, all_groups)]
             method, ratio = "monolithic", 1
         else:
             specs = [_Spec(s.name, s.scheme, list(s.groups)) for s in sc.subdomain]
@@ -137,6 +155,21 @@ class CoupledSimulation:
         fixed = self.tagged.global_vertices(clamp_local)
         area = mdl.area if isinstance(mdl, BarModel) else 1.0
         rayleigh = (mat.rayleigh[0], mat.rayleigh[1])
+        density = self._cell_density() if isinstance(mdl, CraneModel) else None
+        self.preload: Preload | None = None
+        if self.crane is not None and np.any(np.asarray(sc.loading.gravity) != 0.0):
+            assert density is not None
+            self.preload = static_preload(
+                self.tagged,
+                self.crane.pairs,
+                self.crane.wheel,
+                fixed,
+                mat.E,
+                mat.nu,
+                density,
+                np.asarray(sc.loading.gravity, dtype=np.float64),
+                ["trolley_frame"] + [f"wheel_{k}" for k in range(1, 5)],
+            )
 
         explicit_specs = [s for s in specs if s.scheme == "cd-lagrange"]
         implicit_specs = [s for s in specs if s.scheme == "newmark"]
@@ -158,6 +191,7 @@ class CoupledSimulation:
                 rayleigh,
                 fixed,
                 consistent_mass=False,
+                cell_density=density,
             )
         if implicit_specs:
             nm = sc.newmark
@@ -173,6 +207,7 @@ class CoupledSimulation:
                 rayleigh,
                 fixed,
                 consistent_mass=nm.mass == "consistent",
+                cell_density=density,
             )
 
         # Step sizes: Δt from the explicit subdomain's own critical step.
@@ -251,8 +286,45 @@ class CoupledSimulation:
             li if coupled else None,
             dt=self.dt,
         )
+        self.interface_force0 = self._interface_force0() if coupled else None
 
     # -------------------------------------------------------------------------------------
+    def _cell_density(self) -> FloatArray:
+        """Density of every local parent cell: ρ, plus the hoisted mass spread over the
+        trolley frame (carried rigidly)."""
+        mdl = self.scenario.model
+        assert isinstance(mdl, CraneModel)
+        rho = self.scenario.material.rho
+        msh = self.tagged.mesh
+        imap = msh.topology.index_map(msh.topology.dim)
+        density = np.full(imap.size_local + imap.num_ghosts, rho)
+        if mdl.hoisted_mass > 0.0:
+            tag = self.tagged.cell_groups["trolley_frame"]
+            dx = ufl.Measure("dx", domain=msh, subdomain_data=self.tagged.cell_tags)
+            one = dolfinx.fem.Constant(msh, np.float64(1.0))
+            vol = msh.comm.allreduce(
+                dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * dx(tag))), op=MPI.SUM
+            )
+            frame = self.tagged.cell_tags.indices[self.tagged.cell_tags.values == tag]
+            density[frame] += mdl.hoisted_mass / vol
+        return density
+
+    def _interface_force0(self) -> FloatArray | None:
+        """Link forces Λ_0 holding the preloaded subdomains in equilibrium: the explicit
+        side's residual f − K u on its interface rows, Λ_0 = −r_E / c (None from rest)."""
+        if self.preload is None or self.E_int is None:
+            return None
+        E = self.E_int
+        n_g = E.n_gamma
+        E.model.K.mult(E._vecs[0], E._vecs[1])  # K u into E.ku
+        r = E.load(0.0) - E.ku
+        st = E.stack
+        sel = st.rows < n_g
+        lam = np.zeros(n_g)
+        lam[st.rows[sel]] = -r[st.dofs[sel]] / st.coeffs[sel]
+        out: FloatArray = self.comm.allreduce(lam, op=MPI.SUM)
+        return out
+
     def _wall_contacts(self, sub: Subdomain) -> ContactSet:
         sc = self.scenario
         left = self.tagged.global_vertices(self.tagged.facet_vertices(groups.BAR_LEFT_END))
@@ -285,14 +357,22 @@ class CoupledSimulation:
                 "the wheels and their rail zones must belong to explicit (cd-lagrange) subdomains"
             )
         names = [f"wheel_{k}" for k in range(1, 5)]
+        g0 = np.zeros(pairs.shape[0])
+        if self.preload is not None:
+            # Start with every gap at exactly 0: the preload's residual interpenetration
+            # F/k_p is an artefact of its penalty springs (see crane_fem.preload).
+            d = self.preload.displacement
+            g0 = np.where(self.preload.closed, -(d[pairs[:, 0], 2] - d[pairs[:, 1], 2]), 0.0)
         return ContactSet(
             self.comm,
-            np.zeros(pairs.shape[0]),
+            g0,
             np.concatenate(rows).astype(np.int64),
             np.concatenate(dofs).astype(np.int64),
             np.concatenate(coeffs),
             (crane.wheel - 1).astype(np.int64),
             names,
+            # A pair held closed drifts by round-off (ε |u|): 1e-12 of the span absorbs it.
+            tol=1e-12 * self.scenario.model.span,  # type: ignore[union-attr]
         )
 
     def _initial(self, sub: Subdomain) -> tuple[FloatArray, FloatArray]:
@@ -316,6 +396,9 @@ class CoupledSimulation:
                     inside, -p.amplitude * math.pi / p.width * np.sin(2 * math.pi * z), 0.0
                 )
                 v0 = v0 - c * du
+        if self.preload is not None:
+            blocks = sub.parent_vertex[: sub.n_owned_blocks]
+            u0 = self.preload.displacement[blocks].ravel().copy()
         u0[sub.model.fixed] = 0.0
         v0[sub.model.fixed] = 0.0
         return u0, v0
@@ -333,7 +416,7 @@ class CoupledSimulation:
         grav[m.fixed] = 0.0
         gm = sc.loading.ground_motion
         if gm is not None:
-            record = _ground_motion(gm.record, gm.scale)
+            record = _ground_motion_at(gm)
             unit = np.zeros(m.n_owned)
             d = np.asarray(gm.direction, dtype=np.float64)
             d = d / np.linalg.norm(d)

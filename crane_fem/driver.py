@@ -332,6 +332,15 @@ def run_coupled(
         "mpi_size": comm.size,
         "status": "running",
     }
+    if sim.preload is not None:
+        pre = sim.preload
+        summary["preload"] = {
+            "trolley_weight_N": pre.weight,
+            "wheel_forces_N": [float(x) for x in pre.wheel_force],
+            "sum_relative_error": pre.relative_error,
+            "support_reaction_N": pre.support_reaction,
+            "max_penetration_m": pre.penetration,
+        }
     writers = []
     if sc.output.xdmf:
         for sub in (sim.E_sub, sim.I_sub):
@@ -354,7 +363,7 @@ def run_coupled(
     ifd_prev = 0.0
     try:
         with HistoryWriter(out / "history.csv", columns, comm) as writer:
-            rec = integ.initialize()
+            rec = integ.initialize(sim.interface_force0)
             n = 0
             while True:
                 e = rec.energy

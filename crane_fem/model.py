@@ -119,7 +119,7 @@ def assemble_structure(
     V: dolfinx.fem.FunctionSpace,
     E: float,
     nu: float,
-    rho: float,
+    rho: float | dolfinx.fem.Function,
     area: dolfinx.fem.Function | float,
     fixed_dofs: npt.NDArray[np.int32],
     consistent_mass: bool = False,
@@ -127,7 +127,7 @@ def assemble_structure(
     """Stiffness, row-sum lumped mass and (optionally) consistent mass of a linear structure.
 
     A scalar space is an axial bar (∫ E A u' w' dx, mass ρ A); a vector space is 3D linear
-    elasticity (E, ν; mass ρ). Fixed DOFs (local, owned and ghost) get zero rows/columns, unit
+    elasticity (E, ν; mass ρ, a constant or a cellwise DG0 function). Fixed DOFs (local, owned and ghost) get zero rows/columns, unit
     diagonal in K and M. Collective over the mesh communicator.
 
     Returns:

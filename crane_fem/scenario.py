@@ -79,8 +79,10 @@ class BarModel(_Section):
 
 class CraneModel(_Section):
     """Bi-girder overhead-crane mock-up (crane_fem.geometry.crane.CraneGeometry; any of its
-    dimensions may be given). Groups: ``bridge_implicit``, ``trolley_frame``, ``zone_1..4``,
-    ``wheel_1..4``; clamped end-carriage faces; four wheel/rail node-to-node contacts."""
+    dimensions may be given, metres). Groups: ``bridge_implicit``, ``trolley_frame``,
+    ``zone_1..4``, ``wheel_1..4``; clamped end-carriage faces; four wheel/rail node-to-node
+    contacts. ``hoisted_mass`` (kg) is carried rigidly by the trolley frame (added to its
+    density); ``mesh`` reads a ``.msh`` written by ``crane-fem mesh`` instead of meshing."""
 
     kind: Literal["crane"]
     span: PositiveFloat = 4.0
@@ -88,12 +90,23 @@ class CraneModel(_Section):
     girder_width: PositiveFloat = 0.12
     girder_height: PositiveFloat = 0.20
     end_carriage_length: PositiveFloat = 1.6
+    end_carriage_width: PositiveFloat = 0.15
+    end_carriage_height: PositiveFloat = 0.15
     rail_width: PositiveFloat = 0.05
+    rail_height: PositiveFloat = 0.03
     trolley_position: float = 2.0
     wheel_base: PositiveFloat = 0.6
-    wheel_width: PositiveFloat = 0.04
-    size: PositiveFloat = 0.08
-    fine: PositiveFloat = 0.02
+    wheel_width: PositiveFloat = 0.05
+    wheel_length: PositiveFloat = 0.08
+    wheel_height: PositiveFloat = 0.06
+    frame_overhang: PositiveFloat = 0.10
+    frame_length: PositiveFloat = 0.8
+    frame_thickness: PositiveFloat = 0.05
+    zone_margin: PositiveFloat = 0.06
+    size: PositiveFloat = 0.12
+    fine: PositiveFloat = 0.04
+    hoisted_mass: NonNegativeFloat = 0.0
+    mesh: str | None = None
 
     @property
     def groups(self) -> list[str]:
@@ -104,7 +117,7 @@ class CraneModel(_Section):
     def geometry(self) -> Any:
         from crane_fem.geometry.crane import CraneGeometry
 
-        return CraneGeometry(**self.model_dump(exclude={"kind"}))
+        return CraneGeometry(**self.model_dump(exclude={"kind", "hoisted_mass", "mesh"}))
 
 
 class BoxBeamModel(_Section):
@@ -215,12 +228,16 @@ class GroundMotion(_Section):
 
     ``record``: a bundled record name (``el_centro_1940_up``, ``el_centro_1940_180``,
     ``el_centro_1940_270``) or a path to a PEER ``.AT2`` / ``.csv`` (t, a in m/s²) file;
-    ``scale`` multiplies it; ``direction`` is the unit vector of the shaking.
+    ``scale`` multiplies it; ``direction`` is the unit vector of the shaking. ``start`` (s)
+    is the record time at which the run begins (a strong-motion window), ``taper`` (s) the
+    length of a half-cosine ramp from zero at the beginning of the run.
     """
 
     record: str
     scale: float = 1.0
     direction: Vector3 = [0.0, 0.0, 1.0]
+    start: NonNegativeFloat = 0.0
+    taper: NonNegativeFloat = 0.0
 
 
 class TipTraction(_Section):
@@ -253,6 +270,12 @@ class Coupling(_Section):
     method: Literal["gc", "ph", "monolithic"] = "gc"
     ratio: PositiveInt = 1
     scheme: Literal["cd-lagrange", "newmark"] | None = None
+
+    @property
+    def monolithic_scheme(self) -> str:
+        """The single scheme of a monolithic run: ``scheme``, CD-Lagrange by default (the
+        fully explicit reference; ``ratio`` and the ``[[subdomain]]`` split are ignored)."""
+        return self.scheme or "cd-lagrange"
 
 
 class NewmarkParams(_Section):
@@ -324,8 +347,6 @@ class Scenario(_Section):
             raise ValueError("loading.tip_traction applies to model.kind 'box_beam' only")
         cpl = self.coupling
         if cpl is not None and cpl.method == "monolithic":
-            if cpl.scheme is None:
-                raise ValueError("coupling.scheme is required by method 'monolithic'")
             if cpl.scheme == "newmark" and (self.contact or isinstance(mdl, CraneModel)):
                 raise ValueError(
                     "contact needs an explicit subdomain: coupling.scheme = "

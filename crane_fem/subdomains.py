@@ -95,16 +95,19 @@ def create_subdomain(
     rayleigh: tuple[float, float],
     fixed_vertices: IntArray,
     consistent_mass: bool,
+    cell_density: npt.NDArray[np.float64] | None = None,
 ) -> Subdomain:
     """Build the subdomain of ``cells`` (owned parent cells; collective over the mesh comm).
 
     Args:
         fixed_vertices: global parent vertex ids that are clamped (all components).
         consistent_mass: also assemble the consistent mass matrix (Newmark).
+        cell_density: density of every local parent cell (owned and ghost), overriding
+            ``rho``; None for a uniform ``rho``.
     """
     parent = tagged.mesh
     tdim = parent.topology.dim
-    sub, _cell_map, vertex_map, _ = dolfinx.mesh.create_submesh(parent, tdim, cells)
+    sub, cell_map, vertex_map, _ = dolfinx.mesh.create_submesh(parent, tdim, cells)
     gdim = parent.geometry.dim
     V = dolfinx.fem.functionspace(sub, ("Lagrange", 1) if tdim == 1 else ("Lagrange", 1, (gdim,)))
     n_sub_v = sub.topology.index_map(0).size_local + sub.topology.index_map(0).num_ghosts
@@ -128,7 +131,15 @@ def create_subdomain(
         bc_dofs = fixed_blocks.astype(np.int32)
     else:
         bc_dofs = fixed_dofs
-    K, lumped, M = assemble_structure(V, E, nu, rho, area, bc_dofs, consistent_mass)
+    density: float | dolfinx.fem.Function = rho
+    if cell_density is not None:
+        imap = sub.topology.index_map(tdim)
+        sub_cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+        parent_cells = cell_map.sub_topology_to_topology(sub_cells, inverse=False)
+        density = dolfinx.fem.Function(dolfinx.fem.functionspace(sub, ("DG", 0)))
+        dofs = density.function_space.dofmap.list[:, 0]  # one DOF per cell, row = cell
+        density.x.array[dofs] = cell_density[parent_cells]
+    K, lumped, M = assemble_structure(V, E, nu, density, area, bc_dofs, consistent_mass)
     n_own = V.dofmap.index_map.size_local * bs
     fixed = np.zeros(n_own, dtype=bool)
     fixed[fixed_dofs[fixed_dofs < n_own]] = True

@@ -29,6 +29,7 @@ class ContactSet:
         g0: initial gaps (p,), m, identical on all ranks.
         group: index into ``group_names`` of each point (for per-contact output).
         group_names: one name per ``[[contact]]`` entry.
+        tol: gap below which a point counts as closed, m (0: g ≤ 0).
     """
 
     comm: MPI.Comm
@@ -38,10 +39,16 @@ class ContactSet:
     coeffs: FloatArray
     group: IntArray
     group_names: list[str]
+    tol: float = 0.0
     _buf: FloatArray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         self._buf = np.zeros(2 * self.p)
+
+    def closed(self, gaps: FloatArray) -> npt.NDArray[np.bool_]:
+        """Points whose gap is closed: ``g ≤ tol`` (``tol`` absorbs the round-off of a gap
+        held at zero by a persistent contact, which would otherwise open it for a step)."""
+        return gaps <= self.tol
 
     @property
     def p(self) -> int:
@@ -115,4 +122,5 @@ class ContactSet:
             np.concatenate([first.coeffs, second.coeffs]),
             np.concatenate([first.group, second.group + len(first.group_names)]),
             [*first.group_names, *second.group_names],
+            max(first.tol, second.tol),
         )

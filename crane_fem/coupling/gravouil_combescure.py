@@ -249,30 +249,45 @@ class CoupledIntegrator:
         )
         return float(kin), float(pot)
 
-    def initialize(self) -> MacroRecord:
-        """Explicit half step and implicit initial acceleration (collective)."""
+    def initialize(self, interface_force: FloatArray | None = None) -> MacroRecord:
+        """Explicit half step and implicit initial acceleration (collective).
+
+        ``interface_force`` (n_Γ, N): the link forces Λ_0 at t = 0 when the subdomains start
+        from a loaded equilibrium (a static preload); zero by default.
+        """
         E, I = self.E, self.I  # noqa: E741
         self._e_kin = self._e_int = self._i_kin = self._i_int = 0.0
         lam = np.zeros(0)
         gaps = np.zeros(0)
+        lam0 = np.zeros(self.n_gamma)
+        if interface_force is not None and self.coupled:
+            lam0 = np.asarray(interface_force, dtype=np.float64)
         if E is not None:
             fr = E.free(0.0, 0.5 * E.dt, move=False)
             n_g = E.n_gamma
             lam = np.zeros(E.stack.p)
-            active = fr["gaps"][n_g:] <= 0.0
-            if np.any(active):  # initially closed contacts (no interface impulse at t = 0)
-                lam[n_g:] = solve_mixed_lcp(E.W[n_g:, n_g:], fr["q"][n_g:], 0, active)
+            lam[:n_g] = 0.5 * E.dt * lam0  # the link impulse over the first half step
+            active = E.contacts.closed(fr["gaps"][n_g:])
+            if np.any(active):  # initially closed contacts
+                q_c = fr["q"][n_g:] + E.W[n_g:, :n_g] @ lam[:n_g]
+                lam[n_g:] = solve_mixed_lcp(E.W[n_g:, n_g:], q_c, 0, active)
             terms = E.finish(fr, lam, 0.5 * E.dt)
             E.v_int = E.v0.copy()
             kin, pot = self._sum([terms["kinetic"], terms["internal"]])
             self._e_kin, self._e_int = float(kin), float(pot)
             gaps = fr["gaps"]
         if I is not None:
-            I.initialize(0.0)
+            link = None
+            if self.coupled and self.LI is not None:
+                link = self.LI.transpose(lam0, I.model.n_owned)
+            I.initialize(0.0, link)
             self._i_kin, self._i_int = self._implicit_energy()
         if E is not None and self.coupled:
             self.w_prev = E.stack.apply(E.v0)[: self.n_gamma]
-        return self._record(lam, gaps, [])
+            self.lam_prev = E.dt * lam0
+            self.lam_macro_prev = lam0.copy()
+        # The first impulses act over Δt/2: as forces, 2 Λ̂ / Δt.
+        return self._record(2.0 * lam, gaps, [])
 
     def _record(
         self, lam: FloatArray, gaps: FloatArray, micro: list[tuple[float, bool]]
@@ -316,7 +331,7 @@ class CoupledIntegrator:
         assert E is not None
         n_g, m = self.n_gamma, self.m
         fr = E.free(t, E.dt, move=True)
-        active = fr["gaps"][n_g:] <= 0.0
+        active = E.contacts.closed(fr["gaps"][n_g:])
         q = fr["q"].copy()
         solver = self._solver_for(j) if n_g and imposed is None else None
         if n_g and imposed is None:

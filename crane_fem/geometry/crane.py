@@ -48,15 +48,15 @@ class CraneGeometry:
     rail_height: float = 0.03
     trolley_position: float = 2.0
     wheel_base: float = 0.6
-    wheel_width: float = 0.04
+    wheel_width: float = 0.05
     wheel_length: float = 0.08
     wheel_height: float = 0.06
     frame_overhang: float = 0.10
     frame_length: float = 0.8
     frame_thickness: float = 0.05
-    zone_margin: float = 0.15
-    size: float = 0.08
-    fine: float = 0.02
+    zone_margin: float = 0.06
+    size: float = 0.12
+    fine: float = 0.04
 
     def validate(self) -> None:
         """Raise ScenarioError naming the first parameter out of range (before any meshing)."""

@@ -156,6 +156,6 @@ class CDLagrange(CentralDifference):
         m, c = self.model, self.contacts
         v_free = v_prev + h * m.minv * rhs
         gaps, q = c.gaps_and_velocities(self.u, v_free)
-        impulse = solve_lcp(self.W, q, gaps <= 0.0, self.W_diagonal)
+        impulse = solve_lcp(self.W, q, c.closed(gaps), self.W_diagonal)
         f_contact = c.transpose(impulse, m.n_owned)
         return v_free + m.minv * f_contact, impulse, gaps, f_contact
