@@ -128,7 +128,8 @@ def assemble_structure(
 
     A scalar space is an axial bar (∫ E A u' w' dx, mass ρ A); a vector space is 3D linear
     elasticity (E, ν; mass ρ, a constant or a cellwise DG0 function). Fixed DOFs (local, owned
-    and ghost) get zero rows/columns, unit diagonal in K and M. Collective over the mesh communicator.
+    and ghost) get zero rows/columns, unit diagonal in K and M. Collective over the mesh
+    communicator.
 
     Returns:
         ``(K, lumped, M)``: the caller owns ``K`` and ``M``; ``lumped`` holds owned DOFs only.
