@@ -133,7 +133,7 @@ def static_preload(
     local_max = float(np.max(diag.array_r)) if diag.array_r.size else 0.0
     diag.destroy()
     k_p = comm.allreduce(local_max, MPI.MAX)
-    K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+    K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)  # type: ignore[arg-type]
     zero = np.zeros((2, 2))
     mine = set(owned_gv[sel].tolist())
     pair_dofs = [
@@ -142,7 +142,7 @@ def static_preload(
     ]
     for idx in pair_dofs:  # the pattern of every pair, once
         if idx is not None:
-            K.setValues(idx, idx, zero, addv=PETSc.InsertMode.ADD_VALUES)
+            K.setValues(idx, idx, zero.ravel().tolist(), addv=True)  # addv=True: ADD_VALUES
     K.assemble()
     # Isostatic support of the trolley: x, y at pair 0 of wheel 1, x at pair 0 of wheel 4.
     a = block_of[int(pairs[np.flatnonzero(wheel_of_pair == 1)[0], 0])]
@@ -160,24 +160,25 @@ def static_preload(
         Ka = K.copy()
         ke = k_p * np.array([[1.0, -1.0], [-1.0, 1.0]])
         for i in np.flatnonzero(active):
-            if pair_dofs[i] is not None:
-                Ka.setValues(pair_dofs[i], pair_dofs[i], ke, addv=PETSc.InsertMode.ADD_VALUES)
+            idx = pair_dofs[i]
+            if idx is not None:
+                Ka.setValues(idx, idx, ke.ravel().tolist(), addv=True)
         Ka.assemble()
         K_free = Ka.copy()  # before the supports: for their reactions
-        Ka.zeroRowsColumns(own_support, diag=1.0)
+        Ka.zeroRowsColumns(own_support.tolist(), diag=1.0)
         rhs, sol = Ka.createVecRight(), Ka.createVecRight()
         rhs.array[:] = f_sup
-        ksp = PETSc.KSP().create(comm)  # type: ignore[arg-type]
+        ksp = PETSc.KSP().create(comm)
         ksp.setOperators(Ka)
         ksp.setType("preonly")
         pc = ksp.getPC()
         pc.setType("lu")
         pc.setFactorSolverType("mumps")
         ksp.solve(rhs, sol)
-        reason = ksp.getConvergedReason()
+        reason, failed = ksp.getConvergedReason(), ksp.is_diverged
         ksp.destroy()
         ok = comm.allreduce(bool(np.all(np.isfinite(sol.array_r))), MPI.LAND)
-        if reason < 0 or not ok:
+        if failed or not ok:
             raise CraneFemError(f"static preload: the MUMPS solve failed (KSP reason {reason})")
         ku = K_free.createVecLeft()
         K_free.mult(sol, ku)
