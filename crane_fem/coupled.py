@@ -50,7 +50,7 @@ def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh | CraneMesh:
 
 def _ground_motion_at(gm: GroundMotion) -> Callable[[float], float]:
     """a_g at run time t: the record from ``gm.start`` on, tapered in over ``gm.taper``."""
-    record = _ground_motion(gm.record, gm.scale)
+    record = _ground_motion(gm)
     start, taper = gm.start, gm.taper
     if start >= record.duration:
         raise ScenarioError(
@@ -65,11 +65,15 @@ def _ground_motion_at(gm: GroundMotion) -> Callable[[float], float]:
     return a_g
 
 
-def _ground_motion(record: str, scale: float) -> Accelerogram:
-    """A bundled record name or an .AT2 / .csv file, scaled."""
-    from crane_fem.loading import BUNDLED, bundled, read_at2, read_csv
+def _ground_motion(gm: GroundMotion) -> Accelerogram:
+    """A bundled record, an .AT2 / .csv file or a synthetic record, scaled."""
+    from crane_fem.loading import BUNDLED, bundled, read_at2, read_csv, synthetic
 
-    if record in BUNDLED:
+    record = gm.record
+    if record == "synthetic":
+        assert gm.pga is not None and gm.duration is not None
+        rec = synthetic(gm.duration, 0.002, gm.pga, (gm.band[0], gm.band[1]), gm.seed)
+    elif record in BUNDLED:
         rec = bundled(record)
     elif record.lower().endswith(".at2"):
         rec = read_at2(record)
@@ -78,9 +82,9 @@ def _ground_motion(record: str, scale: float) -> Accelerogram:
     else:
         raise ScenarioError(
             f"loading.ground_motion.record: {record!r} is neither a bundled record "
-            f"({', '.join(BUNDLED)}) nor an .AT2/.csv file"
+            f"({', '.join(BUNDLED)}), 'synthetic', nor an .AT2/.csv file"
         )
-    return rec.scaled(scale)
+    return rec.scaled(gm.scale)
 
 
 @dataclass
@@ -154,7 +158,7 @@ class CoupledSimulation:
             clamp_local = np.zeros(0, dtype=np.int32)
         fixed = self.tagged.global_vertices(clamp_local)
         area = mdl.area if isinstance(mdl, BarModel) else 1.0
-        rayleigh = (mat.rayleigh[0], mat.rayleigh[1])
+        rayleigh = mat.rayleigh_coefficients
         density = self._cell_density() if isinstance(mdl, CraneModel) else None
         self.preload: Preload | None = None
         if self.crane is not None and np.any(np.asarray(sc.loading.gravity) != 0.0):
@@ -414,15 +418,24 @@ class CoupledSimulation:
         else:
             grav = (m.mass.reshape(-1, bs) * g[None, :bs]).ravel()
         grav[m.fixed] = 0.0
-        gm = sc.loading.ground_motion
-        if gm is not None:
-            record = _ground_motion_at(gm)
-            unit = np.zeros(m.n_owned)
-            d = np.asarray(gm.direction, dtype=np.float64)
-            d = d / np.linalg.norm(d)
-            unit = -(m.mass.reshape(-1, bs) * d[None, :bs]).ravel()  # −M ι, per unit a_g
-            unit[m.fixed] = 0.0
-            return lambda t: grav + record(t) * unit
+        motions = sc.loading.ground_motions
+        if motions:
+            records, units = [], []
+            for gm in motions:
+                records.append(_ground_motion_at(gm))
+                d = np.asarray(gm.direction, dtype=np.float64)
+                d = d / np.linalg.norm(d)
+                unit = -(m.mass.reshape(-1, bs) * d[None, :bs]).ravel()  # −M ι per unit a_g
+                unit[m.fixed] = 0.0
+                units.append(unit)
+
+            def seismic(t: float) -> FloatArray:
+                out = grav.copy()
+                for rec, unit in zip(records, units, strict=True):
+                    out += rec(t) * unit
+                return out
+
+            return seismic
         tip = sc.loading.tip_traction
         if tip is None:
             return lambda t: grav

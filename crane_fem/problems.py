@@ -94,7 +94,7 @@ def create_problem(comm: MPI.Comm, sc: Scenario) -> Problem:
     )
     fixed = np.zeros(n_own, dtype=bool)
     fixed[fixed_local[fixed_local < n_own]] = True
-    alpha, beta = sc.material.rayleigh
+    alpha, beta = sc.material.rayleigh_coefficients
     model = StructuralModel(V, K, mass, fixed, alpha, beta)
 
     # Contact points: terms on the DOFs this rank owns.

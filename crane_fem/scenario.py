@@ -93,7 +93,7 @@ class CraneModel(_Section):
     end_carriage_width: PositiveFloat = 0.15
     end_carriage_height: PositiveFloat = 0.15
     rail_width: PositiveFloat = 0.05
-    rail_height: PositiveFloat = 0.03
+    rail_height: PositiveFloat = 0.04
     trolley_position: float = 2.0
     wheel_base: PositiveFloat = 0.6
     wheel_width: PositiveFloat = 0.05
@@ -103,6 +103,7 @@ class CraneModel(_Section):
     frame_length: PositiveFloat = 0.8
     frame_thickness: PositiveFloat = 0.05
     zone_margin: PositiveFloat = 0.06
+    zone_depth: NonNegativeFloat = 0.0
     size: PositiveFloat = 0.12
     fine: PositiveFloat = 0.04
     hoisted_mass: NonNegativeFloat = 0.0
@@ -144,13 +145,45 @@ class BoxBeamModel(_Section):
         return ["part_a", "part_b"]
 
 
+class DampingRatio(_Section):
+    """Rayleigh damping giving the ratio ``ratio`` at the frequencies f1 < f2 (Hz)."""
+
+    ratio: Annotated[float, Field(ge=0.0, lt=1.0)]
+    f1: PositiveFloat
+    f2: PositiveFloat
+
+    @model_validator(mode="after")
+    def _order(self) -> DampingRatio:
+        if not self.f1 < self.f2:
+            raise ValueError(f"f1 = {self.f1} must be < f2 = {self.f2}")
+        return self
+
+
 class Material(_Section):
-    """Linear elastic material; Rayleigh damping C = alpha M + beta K."""
+    """Linear elastic material; Rayleigh damping C = alpha M + beta K, given as ``rayleigh``
+    = [alpha, beta] or as a ``damping`` ratio at two frequencies."""
 
     E: PositiveFloat
     rho: PositiveFloat
     nu: Annotated[float, Field(ge=0.0, lt=0.5)] = 0.3
     rayleigh: NonNegativePair = [0.0, 0.0]
+    damping: DampingRatio | None = None
+
+    @model_validator(mode="after")
+    def _one_damping(self) -> Material:
+        if self.damping is not None and any(self.rayleigh):
+            raise ValueError("give either rayleigh or damping, not both")
+        return self
+
+    @property
+    def rayleigh_coefficients(self) -> tuple[float, float]:
+        """(alpha, beta) of C = alpha M + beta K."""
+        if self.damping is None:
+            return float(self.rayleigh[0]), float(self.rayleigh[1])
+        from crane_fem.loading import rayleigh_from_damping
+
+        d = self.damping
+        return rayleigh_from_damping(d.ratio, d.f1, d.f2)
 
 
 class Pulse(_Section):
@@ -227,7 +260,9 @@ class GroundMotion(_Section):
     """Seismic ground acceleration a_g(t) (relative formulation: body force −ρ a_g(t) direction).
 
     ``record``: a bundled record name (``el_centro_1940_up``, ``el_centro_1940_180``,
-    ``el_centro_1940_270``) or a path to a PEER ``.AT2`` / ``.csv`` (t, a in m/s²) file;
+    ``el_centro_1940_270``), a path to a PEER ``.AT2`` / ``.csv`` (t, a in m/s²) file, or
+    ``synthetic`` (band-limited enveloped noise: ``pga`` m/s², ``duration`` s, ``band`` Hz,
+    ``seed``); several components are given as ``[[loading.ground_motion]]`` entries;
     ``scale`` multiplies it; ``direction`` is the unit vector of the shaking. ``start`` (s)
     is the record time at which the run begins (a strong-motion window), ``taper`` (s) the
     length of a half-cosine ramp from zero at the beginning of the run.
@@ -238,6 +273,23 @@ class GroundMotion(_Section):
     direction: Vector3 = [0.0, 0.0, 1.0]
     start: NonNegativeFloat = 0.0
     taper: NonNegativeFloat = 0.0
+    pga: PositiveFloat | None = None
+    duration: PositiveFloat | None = None
+    band: Annotated[list[PositiveFloat], Field(min_length=2, max_length=2)] = [0.5, 15.0]
+    seed: int = 0
+
+    @model_validator(mode="after")
+    def _synthetic(self) -> GroundMotion:
+        synth = self.record == "synthetic"
+        if synth and (self.pga is None or self.duration is None):
+            raise ValueError("record 'synthetic' needs pga (m/s²) and duration (s)")
+        if not synth and (self.pga is not None or self.duration is not None):
+            raise ValueError("pga and duration apply to record = 'synthetic' only")
+        if synth and not self.band[0] < self.band[1]:
+            raise ValueError(f"band must be [f_low, f_high] with f_low < f_high (got {self.band})")
+        if not any(self.direction):
+            raise ValueError("direction must not be the zero vector")
+        return self
 
 
 class TipTraction(_Section):
@@ -252,7 +304,12 @@ class Loading(_Section):
 
     gravity: Vector3 = [0.0, 0.0, 0.0]
     tip_traction: TipTraction | None = None
-    ground_motion: GroundMotion | None = None
+    ground_motion: GroundMotion | list[GroundMotion] | None = None
+
+    @property
+    def ground_motions(self) -> list[GroundMotion]:
+        gm = self.ground_motion
+        return [] if gm is None else gm if isinstance(gm, list) else [gm]
 
 
 class SubdomainSpec(_Section):

@@ -59,15 +59,23 @@ class ContactSet:
 
     def apply(self, x: FloatArray) -> FloatArray:
         """``L x`` for an owned-DOF array ``x`` (collective)."""
-        return self.comm.allreduce(self._local(x), op=MPI.SUM)
+        local = self._local(x)
+        if self.comm.size == 1:
+            return local
+        out = np.empty_like(local)
+        self.comm.Allreduce(local, out, op=MPI.SUM)
+        return out
 
     def gaps_and_velocities(self, u: FloatArray, v: FloatArray) -> tuple[FloatArray, FloatArray]:
         """``(g0 + L u, L v)`` in one reduction (collective)."""
         p = self.p
         self._buf[:p] = self._local(u)
         self._buf[p:] = self._local(v)
-        out = np.empty_like(self._buf)
-        self.comm.Allreduce(self._buf, out, op=MPI.SUM)
+        if self.comm.size == 1:
+            out = self._buf.copy()
+        else:
+            out = np.empty_like(self._buf)
+            self.comm.Allreduce(self._buf, out, op=MPI.SUM)
         return self.g0 + out[:p], out[p:]
 
     def add_transpose(self, lam: FloatArray, out: FloatArray, scale: FloatArray | float) -> None:

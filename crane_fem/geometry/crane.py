@@ -45,7 +45,7 @@ class CraneGeometry:
     end_carriage_width: float = 0.15
     end_carriage_height: float = 0.15
     rail_width: float = 0.05
-    rail_height: float = 0.03
+    rail_height: float = 0.04
     trolley_position: float = 2.0
     wheel_base: float = 0.6
     wheel_width: float = 0.05
@@ -55,12 +55,14 @@ class CraneGeometry:
     frame_length: float = 0.8
     frame_thickness: float = 0.05
     zone_margin: float = 0.06
+    zone_depth: float = 0.0
     size: float = 0.12
     fine: float = 0.04
 
     def validate(self) -> None:
         """Raise ScenarioError naming the first parameter out of range (before any meshing)."""
-        positive = [k for k, v in self.__dict__.items() if k != "trolley_position" and v <= 0]
+        signed = ("trolley_position", "zone_depth")
+        positive = [k for k, v in self.__dict__.items() if k not in signed and v <= 0]
         if positive:
             raise ScenarioError(
                 f"geometry.{positive[0]} must be > 0, got {getattr(self, positive[0])}"
@@ -82,6 +84,11 @@ class CraneGeometry:
             raise ScenarioError("geometry.end_carriage_length must span both girders")
         if self.girder_spacing <= self.girder_width:
             raise ScenarioError("geometry.girder_spacing must exceed geometry.girder_width")
+        if not 0.0 <= self.zone_depth < self.girder_height:
+            raise ScenarioError(
+                f"geometry.zone_depth = {self.zone_depth} must lie in [0, girder_height = "
+                f"{self.girder_height})"
+            )
         if self.fine > self.size:
             raise ScenarioError("geometry.fine must not exceed geometry.size")
 
@@ -132,16 +139,17 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
     # Zone boxes around each contact, and imprint rectangles for the rail patches.
     zt = geo.rail_top
     m = geo.zone_margin
+    depth = geo.zone_depth
     zones, imprints = [], []
     for x, y in geo.wheel_centres():
         zones.append(
             _box(
                 x - 0.5 * geo.girder_width - 1e-3,
                 y - 0.5 * geo.wheel_length - m,
-                hc + hg - m,
+                hc + hg - depth,
                 geo.girder_width + 2e-3,
                 geo.wheel_length + 2 * m,
-                m + hr + 1e-3,
+                depth + hr + 1e-3,
             )
         )
         imprints.append(
@@ -210,7 +218,7 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
             for k, (x, y) in enumerate(centres)
             if abs(c[0] - x) < 0.5 * geo.girder_width + 2e-3
             and abs(c[1] - y) < 0.5 * geo.wheel_length + m + eps
-            and c[2] > hc + hg - m
+            and c[2] > hc + hg - depth - eps
         ]
         vol_groups[f"zone_{hit[0] + 1}" if hit else "bridge_implicit"].append(tag)
     volume_groups = {}
@@ -270,7 +278,7 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
         field.setNumber(b, "XMax", x + 0.5 * geo.girder_width)
         field.setNumber(b, "YMin", y - 0.5 * geo.wheel_length - m)
         field.setNumber(b, "YMax", y + 0.5 * geo.wheel_length + m)
-        field.setNumber(b, "ZMin", hc + hg - m)
+        field.setNumber(b, "ZMin", hc + hg - depth)
         field.setNumber(b, "ZMax", zt + geo.wheel_height)
         field.setNumber(b, "Thickness", m)
         boxes.append(b)
