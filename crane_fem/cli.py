@@ -1,4 +1,4 @@
-"""The ``crane-fem`` command: ``run`` and ``check`` a scenario."""
+"""The ``crane-fem`` command: ``run``, ``check`` and ``mesh`` a scenario; ``plot`` its outputs."""
 
 from __future__ import annotations
 
@@ -47,6 +47,18 @@ def _parser() -> argparse.ArgumentParser:
     check.add_argument(
         "--set", dest="overrides", action="append", default=[], metavar="KEY.PATH=VALUE"
     )
+    plot = sub.add_parser(
+        "plot", help="figures of a run directory, or of the runs in its subdirectories"
+    )
+    plot.add_argument("outdir", type=Path)
+    mesh = sub.add_parser("mesh", help="mesh a crane scenario's geometry to a gmsh .msh file")
+    mesh.add_argument("scenario", type=Path)
+    mesh.add_argument(
+        "-o", "--output", type=Path, default=None, help="default: meshes/<scenario name>.msh"
+    )
+    mesh.add_argument(
+        "--set", dest="overrides", action="append", default=[], metavar="KEY.PATH=VALUE"
+    )
     return parser
 
 
@@ -61,7 +73,20 @@ def main(argv: list[str] | None = None) -> int:
     comm = MPI.COMM_WORLD
     rank0 = comm.rank == 0
     try:
+        if args.command == "plot":
+            return _plot(args.outdir) if rank0 else 0
         sc = load_scenario(args.scenario, args.overrides)
+        if args.command == "mesh":
+            from crane_fem.geometry.crane import write_crane_mesh
+            from crane_fem.scenario import CraneModel
+
+            if not isinstance(sc.model, CraneModel):
+                raise ScenarioError(f"{args.scenario}: model.kind must be 'crane' to be meshed")
+            path = args.output or Path("meshes") / f"{sc.name}.msh"
+            if rank0:
+                info = write_crane_mesh(sc.model.geometry(), path)
+                print(f"crane-fem: wrote {path} ({info})")
+            return 0
         if args.command == "check":
             if rank0:
                 print(f"{args.scenario}: ok ({sc.model.kind}, {sc.integrator.scheme})")
@@ -95,6 +120,19 @@ def main(argv: list[str] | None = None) -> int:
     except CraneFemError as exc:
         print(f"crane-fem: error: {exc}", file=sys.stderr)
         return 1
+
+
+def _plot(outdir: Path) -> int:
+    from crane_fem.plotting import plot_outputs
+
+    try:
+        paths = plot_outputs(outdir)
+    except (FileNotFoundError, ValueError) as exc:
+        print(f"crane-fem: error: {exc}", file=sys.stderr)
+        return 2
+    for p in paths:
+        print(f"crane-fem: wrote {p}")
+    return 0
 
 
 if __name__ == "__main__":

@@ -39,7 +39,7 @@ def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh | CraneMesh:
     """The parent mesh of the scenario with its named groups (collective)."""
     mdl = sc.model
     if isinstance(mdl, CraneModel):
-        return create_crane_mesh(comm, mdl.geometry())
+        return create_crane_mesh(comm, mdl.geometry(), mdl.mesh)
     if isinstance(mdl, BoxBeamModel):
         return create_box_beam(comm, BoxBeam(mdl.length, mdl.width, mdl.height, mdl.split, mdl.h))
     assert isinstance(mdl, BarModel)

@@ -343,15 +343,20 @@ def run_coupled(
         }
     writers = []
     if sc.output.xdmf:
+        solid = bs == 3
         for sub in (sim.E_sub, sim.I_sub):
             if sub is not None:
+                is_e = sub is sim.E_sub
+                names = ["displacement", "velocity"] + (["contact_force"] if is_e else [])
                 writers.append(
                     (
                         sub,
                         XDMFSeries(
                             out / f"solution_{sub.name.replace('+', '_')}.xdmf",
                             sub.V,
-                            ["displacement", "velocity"],
+                            names,
+                            constants={"subdomain": 0.0 if is_e else 1.0},
+                            von_mises=(sc.material.E, sc.material.nu) if solid else None,
                         ),
                     )
                 )
@@ -452,7 +457,13 @@ def run_coupled(
                         du = rec.explicit_u if is_e else rec.implicit_u
                         dv = rec.explicit_v if is_e else rec.implicit_v
                         assert du is not None and dv is not None
-                        w.write(rec.t, {"displacement": du, "velocity": dv})
+                        fields = {"displacement": du, "velocity": dv}
+                        if is_e:
+                            assert sim.E_int is not None
+                            fields["contact_force"] = (
+                                sim.contacts.transpose(rec.contact_impulse, du.size) / sim.dt
+                            )
+                        w.write(rec.t, fields)
                 if n == sim.n_macro:
                     break
                 rec = integ.step()

@@ -8,10 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import COMM
-from xdmf_reader import read_xdmf
 
 from crane_fem.cli import main
-from crane_fem.io import read_history
+from crane_fem.io import read_history, read_xdmf
 
 ENERGIES = {
     "kinetic",
@@ -70,7 +69,7 @@ def test_cli_run_writes_history_summary_xdmf(shared_tmp) -> None:
     assert hist["t"].size == summary["steps"] // 2 + 1 + (summary["steps"] % 2)
     assert np.all(np.diff(hist["t"]) > 0)
 
-    geometry, fields = read_xdmf(out / "solution.xdmf")
+    geometry, _, fields = read_xdmf(out / "solution.xdmf")
     assert set(fields) == {"displacement", "velocity", "contact_force"}
     times = [t for t, _ in fields["displacement"]]
     assert times[0] == 0.0 and times[-1] == pytest.approx(hist["t"][-1])

@@ -12,6 +12,7 @@ girder material inside a box around each contact; the rest is implicit.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import dolfinx.io.gmsh
 import dolfinx.mesh
@@ -30,6 +31,8 @@ __all__ = [
     "build_crane_model",
     "create_crane_mesh",
     "input_nodes_to_global_vertices",
+    "mesh_info",
+    "write_crane_mesh",
 ]
 
 
@@ -292,16 +295,61 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
     # (measured on the quick crane: Δt_crit 8.0e-7 -> 1.2e-6 s).
     gmsh.option.setNumber("Mesh.OptimizeNetgen", 1)
     gmsh.model.mesh.generate(3)
+    return mesh_info()
 
+
+def mesh_info() -> CraneMeshInfo:
+    """Groups and wheel/rail node pairs of the crane mesh in the current gmsh model (built by
+    :func:`build_crane_model` or read from a ``.msh`` file: the physical names and the
+    periodic node correspondence are stored in it)."""
+    names = {
+        (dim, tag): gmsh.model.getPhysicalName(dim, tag)
+        for dim, tag in gmsh.model.getPhysicalGroups()
+    }
+    volume_groups = {n: t for (d, t), n in names.items() if d == 3}
+    surface_groups = {n: t for (d, t), n in names.items() if d == 2}
     contact_pairs = []
-    for wheel_face, _rail_face in pairs_geo:
+    for k in range(1, 5):
+        name = f"wheel_patch_{k}"
+        if name not in surface_groups:
+            raise ScenarioError(f"crane mesh: no surface group {name!r}")
+        (face,) = gmsh.model.getEntitiesForPhysicalGroup(2, surface_groups[name])
         _, nodes, master_nodes, _ = gmsh.model.mesh.getPeriodicNodes(
-            2, wheel_face, includeHighOrderNodes=False
+            2, int(face), includeHighOrderNodes=False
         )
+        if len(nodes) == 0:
+            raise ScenarioError(f"crane mesh: {name} has no periodic (paired) nodes")
         contact_pairs.append(
             (np.asarray(nodes, dtype=np.int64), np.asarray(master_nodes, dtype=np.int64))
         )
     return CraneMeshInfo(volume_groups, surface_groups, contact_pairs)
+
+
+def write_crane_mesh(geo: CraneGeometry, path: str | Path) -> str:
+    """Mesh the crane and write it as a gmsh 4.1 ``.msh`` file (not collective: one process).
+
+    gmsh meshes deterministically (one thread), so the same parameters give the same file.
+    Returns a one-line description (nodes, tetrahedra, contact pairs).
+    """
+    geo.validate()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", 1)
+        gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+        gmsh.option.setNumber("Mesh.Binary", 0)
+        gmsh.option.setNumber("Mesh.SaveAll", 0)
+        gmsh.model.add("crane")
+        info = build_crane_model(geo)
+        gmsh.write(str(path))
+        n_nodes = len(gmsh.model.mesh.getNodes()[0])
+        n_tets = len(gmsh.model.mesh.getElementsByType(4)[0])
+    finally:
+        gmsh.finalize()
+    n_pairs = sum(w.size for w, _ in info.contact_pairs)
+    return f"{n_nodes} nodes, {n_tets} tetrahedra, {n_pairs} wheel/rail node pairs"
 
 
 @dataclass
@@ -340,19 +388,39 @@ def input_nodes_to_global_vertices(
     return np.array([lookup[int(i)] for i in input_nodes], dtype=np.int64)
 
 
-def create_crane_mesh(comm: MPI.Comm, geo: CraneGeometry) -> CraneMesh:
-    """Validate, mesh with gmsh on rank 0, distribute, and map the contact pairs (collective).
+def create_crane_mesh(
+    comm: MPI.Comm, geo: CraneGeometry, msh_file: str | Path | None = None
+) -> CraneMesh:
+    """Validate, mesh with gmsh on rank 0 (or read ``msh_file``, a mesh written by
+    :func:`write_crane_mesh`), distribute, and map the contact pairs (collective).
 
     Raises:
-        ScenarioError: a geometry parameter out of range, on every rank, before meshing.
+        ScenarioError: a geometry parameter out of range, or a missing or foreign mesh file,
+            on every rank, before meshing.
     """
     geo.validate()  # every rank checks the same parameters: the same error everywhere
-    info = None
+    if msh_file is not None and not Path(msh_file).is_file():
+        raise ScenarioError(f"model.mesh: {msh_file} is not a file (write it with crane-fem mesh)")
+    info: CraneMeshInfo | None = None
+    error: str | None = None
     if comm.rank == 0:
         gmsh.initialize(interruptible=False)
         gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("crane")
-        info = build_crane_model(geo)
+        gmsh.option.setNumber("General.NumThreads", 1)
+        if msh_file is not None:
+            gmsh.open(str(msh_file))
+            try:
+                info = mesh_info()
+            except ScenarioError as exc:
+                error = f"model.mesh: {msh_file}: {exc}"
+        else:
+            gmsh.model.add("crane")
+            info = build_crane_model(geo)
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        if comm.rank == 0:
+            gmsh.finalize()
+        raise ScenarioError(error)
     partitioner = dolfinx.mesh.create_cell_partitioner(  # type: ignore[call-arg]
         dolfinx.mesh.GhostMode.shared_facet, 2
     )

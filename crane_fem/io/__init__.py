@@ -2,6 +2,6 @@
 
 from crane_fem.io.history import HistoryWriter, read_history
 from crane_fem.io.summary import write_summary
-from crane_fem.io.xdmf import XDMFSeries
+from crane_fem.io.xdmf import XDMFSeries, read_xdmf
 
-__all__ = ["HistoryWriter", "XDMFSeries", "read_history", "write_summary"]
+__all__ = ["HistoryWriter", "XDMFSeries", "read_history", "read_xdmf", "write_summary"]
