@@ -315,8 +315,11 @@ def run_coupled(
             pair_probe.append((k, int(sim.crane.pairs[i, 0]), int(sim.crane.pairs[i, 1])))
             columns += [f"wheel{k}_{side}_{q}" for side in ("wheel", "rail") for q in ("uz", "vz")]
     history: dict[str, list[float]] = {c: [] for c in columns}
-    every = sc.output.every
-    xdmf_every = sc.output.xdmf_every or max(1, sim.n_macro // 200)
+    # A monolithic run of a coupled scenario writes at the coupled run's output times
+    # (every `ratio` steps per macro step), so the two histories share one time grid.
+    per = sc.coupling.ratio if (sim.method == "monolithic" and sc.coupling is not None) else 1
+    every = sc.output.every * per
+    xdmf_every = (sc.output.xdmf_every or max(1, sim.n_macro // (200 * per))) * per
     summary: dict[str, Any] = {
         "scenario": sc.name,
         "method": sim.method,

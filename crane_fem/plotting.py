@@ -202,9 +202,15 @@ def _force_figure(runs: list[Run], path: Path) -> Path | None:
 def render_peak(run_dir: Path, path: Path, warp: float | None = None) -> Path | None:
     """Off-screen pyvista render of the deformed mesh (all subdomain XDMF files of the run)
     at the output time of largest displacement, coloured by von Mises stress (MPa)."""
+    import os
+
+    # Off-screen through EGL (no X server on compute nodes and CI).
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
     import pyvista as pv
 
     from crane_fem.io import read_xdmf
+
+    pv.OFF_SCREEN = True
 
     files = sorted(run_dir.glob("solution_*.xdmf"))
     if not files:

@@ -598,4 +598,10 @@ def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scena
         raise ScenarioError(f"{p}: cannot read the scenario: {exc}") from None
     data.setdefault("name", p.stem)
     apply_overrides(data, overrides or [])
+    # A relative mesh path is relative to the scenario file (as an include would be).
+    mdl = data.get("model")
+    if isinstance(mdl, dict) and isinstance(mdl.get("mesh"), str):
+        mesh = Path(mdl["mesh"])
+        if not mesh.is_absolute():
+            mdl["mesh"] = str(p.parent / mesh)
     return parse_scenario(data, str(p))
