@@ -123,15 +123,22 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _plot(outdir: Path) -> int:
+    from crane_fem.compare import describe, write_comparison
     from crane_fem.plotting import plot_outputs
 
     try:
         paths = plot_outputs(outdir)
+        compared = write_comparison(outdir)
     except (FileNotFoundError, ValueError) as exc:
         print(f"crane-fem: error: {exc}", file=sys.stderr)
         return 2
     for p in paths:
         print(f"crane-fem: wrote {p}")
+    if compared is not None:
+        path, result = compared
+        print(f"crane-fem: wrote {path}")
+        for line in describe(result):
+            print(f"crane-fem: {line}")
     return 0
 
 

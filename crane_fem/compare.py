@@ -1,0 +1,134 @@
+"""Heterogeneous (GC) run against the fully explicit run of the same crane scene.
+
+The figures of the comparison are those of :mod:`crane_fem.plotting`; this module computes the
+numbers the acceptance of the crane scene asks for:
+
+- per wheel, the relative L2 difference over the run of the vertical displacement of the
+  contact node pair (wheel and rail side), on the dynamic part u(t) − u(0) (the static preload
+  deflection, identical in both runs, is left out: it would hide the differences) and on the
+  whole u(t);
+- the lift-off episodes of each wheel (all its pairs open by more than ``lift_gap``): count,
+  onset and end times, and the onset shift in macro steps;
+- the energy dissipated at the interface, relative to the largest magnitude of the external
+  work over the run (the energy supplied by gravity and the earthquake);
+- the wall-time ratio (explicit / heterogeneous).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from crane_fem.plotting import Run, load_runs
+
+__all__ = ["compare_runs", "lift_off_episodes", "write_comparison"]
+
+FloatArray = npt.NDArray[np.float64]
+
+LIFT_GAP = 1e-6  # m: a wheel is off its rail when all its pairs are open by more than this
+
+
+def lift_off_episodes(
+    t: FloatArray, gap: FloatArray, lift_gap: float = LIFT_GAP
+) -> list[list[float]]:
+    """[onset, end] times of the intervals where ``gap`` > ``lift_gap`` (end = last time if
+    the wheel is still off at the end)."""
+    off = gap > lift_gap
+    edges = np.flatnonzero(np.diff(np.r_[0, off.astype(np.int8), 0]))
+    return [
+        [float(t[a]), float(t[min(b, t.size) - 1])]
+        for a, b in zip(edges[::2], edges[1::2], strict=True)
+    ]
+
+
+def _rel_l2(a: FloatArray, ref: FloatArray) -> float:
+    den = float(np.linalg.norm(ref))
+    return float(np.linalg.norm(a - ref)) / den if den > 0 else float(np.linalg.norm(a - ref))
+
+
+def compare_runs(het: Run, exp: Run, lift_gap: float = LIFT_GAP) -> dict[str, Any]:
+    """The comparison numbers (see the module docstring) of a coupled and an explicit run."""
+    t = het.history["t"]
+    te = exp.history["t"]
+    dT = float(het.summary.get("dT", t[1] - t[0] if t.size > 1 else 1.0))  # type: ignore[arg-type]
+    out: dict[str, Any] = {"wheels": {}}
+    worst = 0.0
+    for k in range(1, 5):
+        if f"wheel{k}_wheel_uz" not in het.history:
+            continue
+        w: dict[str, Any] = {}
+        for side in ("wheel", "rail"):
+            col = f"wheel{k}_{side}_uz"
+            uh = het.history[col]
+            ue = np.interp(t, te, exp.history[col])
+            w[f"{side}_uz_l2_dynamic"] = _rel_l2(uh - uh[0], ue - ue[0])
+            w[f"{side}_uz_l2_total"] = _rel_l2(uh, ue)
+            worst = max(worst, w[f"{side}_uz_l2_dynamic"])
+        eh = lift_off_episodes(t, het.history[f"gap_wheel_{k}"], lift_gap)
+        ee = lift_off_episodes(te, exp.history[f"gap_wheel_{k}"], lift_gap)
+        w["lift_offs_heterogeneous"] = eh
+        w["lift_offs_explicit"] = ee
+        w["same_lift_off_count"] = len(eh) == len(ee)
+        if len(eh) == len(ee) and eh:
+            w["onset_shift_macro_steps"] = (
+                max(abs(a[0] - b[0]) for a, b in zip(eh, ee, strict=True)) / dT
+            )
+        out["wheels"][k] = w
+    out["worst_pair_uz_l2_dynamic"] = worst
+    ext = float(np.max(np.abs(het.history["external_work"])))
+    ifd = het.history.get("interface_dissipated", np.zeros(1))
+    out["external_work_max_abs_J"] = ext
+    out["interface_dissipated_final_J"] = float(ifd[-1])
+    out["interface_dissipated_max_abs_J"] = float(np.max(np.abs(ifd)))
+    out["interface_dissipated_over_external_work"] = (
+        float(np.max(np.abs(ifd))) / ext if ext > 0 else 0.0
+    )
+    wh, we = het.summary.get("wall_time_s"), exp.summary.get("wall_time_s")
+    if isinstance(wh, float) and isinstance(we, float) and wh > 0:
+        out["wall_time_s"] = {"heterogeneous": wh, "explicit": we}
+        out["wall_time_ratio_explicit_over_heterogeneous"] = we / wh
+    out["lift_gap_m"] = lift_gap
+    return out
+
+
+def write_comparison(outdir: Path) -> tuple[Path, dict[str, Any]] | None:
+    """Compare the coupled and the monolithic run found under ``outdir``; write
+    ``comparison.json`` there. None unless there is one run of each."""
+    runs = load_runs(outdir)
+    het = [r for r in runs if r.summary.get("method") in ("gc", "ph")]
+    exp = [r for r in runs if r.summary.get("method") == "monolithic"]
+    if len(het) != 1 or len(exp) != 1:
+        return None
+    result = compare_runs(het[0], exp[0])
+    path = outdir / "comparison.json"
+    path.write_text(json.dumps(result, indent=2, sort_keys=True))
+    return path, result
+
+
+def describe(result: dict[str, Any]) -> list[str]:
+    """Lines summarising a comparison for the terminal."""
+    lines = []
+    for k, w in result["wheels"].items():
+        shift = w.get("onset_shift_macro_steps")
+        lines.append(
+            f"wheel {k}: L2(u_z − u_z0) wheel {100 * w['wheel_uz_l2_dynamic']:.2f} %, rail "
+            f"{100 * w['rail_uz_l2_dynamic']:.2f} %; lift-offs {len(w['lift_offs_heterogeneous'])} "
+            f"(heterogeneous) / {len(w['lift_offs_explicit'])} (explicit)"
+            + (f", onsets within {shift:.1f} macro steps" if shift is not None else "")
+        )
+    lines.append(
+        f"interface dissipated: max |E_Γ| = {result['interface_dissipated_max_abs_J']:.3e} J = "
+        f"{100 * result['interface_dissipated_over_external_work']:.3f} % of max |external work|"
+    )
+    if "wall_time_ratio_explicit_over_heterogeneous" in result:
+        wt = result["wall_time_s"]
+        ratio = result["wall_time_ratio_explicit_over_heterogeneous"]
+        lines.append(
+            f"wall time: explicit {wt['explicit']:.1f} s, heterogeneous "
+            f"{wt['heterogeneous']:.1f} s (ratio {ratio:.2f})"
+        )
+    return lines
