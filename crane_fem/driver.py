@@ -335,6 +335,12 @@ def run_coupled(
         "mpi_size": comm.size,
         "status": "running",
     }
+    # Where the constraints live: owned DOFs of the contact and interface rows per rank.
+    summary["contact_dofs_per_rank"] = comm.allgather(int(sim.contacts.dofs.size))
+    n_if = 0
+    if sim.E_int is not None and integ.coupled:
+        n_if = int(np.count_nonzero(sim.E_int.stack.rows < sim.E_int.n_gamma))
+    summary["interface_dofs_per_rank"] = comm.allgather(n_if)
     if sim.preload is not None:
         pre = sim.preload
         summary["preload"] = {
