@@ -93,12 +93,11 @@ def test_quick_scene_lift_off_and_reimpact(quick_runs) -> None:
         assert any(ep[1] < h["t"][-1] for eps in lifted for ep in eps)
     cmp = compare_runs(het, exp)
     for w in cmp["wheels"].values():
-        assert w["same_lift_off_count"]
-        if w["lift_offs_explicit"]:
-            assert w["onset_shift_macro_steps"] <= 3.0
-    # Heterogeneous vs explicit pair displacement: the bound 5 %.
+        # The same lift-offs (flights above 0.1 mm), starting within a few macro steps.
+        assert w["same_lift_off_count"] and w["lift_offs_explicit"]
+        assert w["onset_shift_macro_steps"] <= 3.0
+    # Heterogeneous vs explicit pair displacement u_z − u_z(0): the bound, 5 %.
     assert cmp["worst_pair_uz_l2_dynamic"] <= 0.05
-    assert cmp["interface_dissipated_over_external_work"] <= 0.01
 
 
 @pytest.mark.serial

@@ -1,0 +1,123 @@
+"""Long-run stability of the GC coupling as specified (THEORY.md §3), without any dissipation.
+
+    .venv/bin/python benchmarks/gc_stability.py
+
+Two independent measurements:
+
+1. The package itself: the split bar (`demos/split_bar.toml`) clamped at its right end, no
+   wall, a cos² pulse, no damping, CD-Lagrange | Newmark (average acceleration) with GC at
+   ratio m, run for 200 time units (≈ 44 000 micro steps). A stable coupling keeps
+   kinetic + internal energy bounded by its initial value (GC should only dissipate); we
+   report max(E)/E0 and the final interface-dissipated energy.
+2. The amplification matrix of one macro step of the same algorithm, written out in 40 lines
+   of numpy for two 6-node chains (explicit | implicit, implicit end clamped): its spectral
+   radius ρ. ρ > 1 means some mode grows by ρ per macro step however small Δt is.
+
+Both the j/m-weighted interface operator H_j = ½Δt W_E + (j/m) γ ΔT W_I (what THEORY.md
+prescribes and crane_fem implements) and the constant one (j/m → 1) are measured.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _chain(n: int) -> tuple[np.ndarray, np.ndarray]:
+    K = np.zeros((n, n))
+    M = np.ones(n)
+    for e in range(n - 1):
+        K[e : e + 2, e : e + 2] += np.array([[1.0, -1.0], [-1.0, 1.0]])
+    M[0] *= 0.5
+    M[-1] *= 0.5
+    return K, M
+
+
+def spectral_radius(m: int, weighted: bool, n: int = 6) -> float:
+    """ρ of one GC macro step (CD explicit chain | Newmark chain clamped at its far end)."""
+    KB, MB = _chain(n)
+    KA, MA_l = _chain(n)
+    MA = np.diag(MA_l)
+    dt = 0.9 * 2.0 / np.sqrt(np.max(np.linalg.eigvalsh(KB / np.sqrt(np.outer(MB, MB)))))
+    dT, beta, gamma = m * dt, 0.25, 0.5
+    Mt = MA + beta * dT**2 * KA
+    Mt[-1, :] = 0.0
+    Mt[:, -1] = 0.0
+    Mt[-1, -1] = 1.0
+    Mti = np.linalg.inv(Mt)
+    LA = np.zeros(n)
+    LA[0] = -1.0
+    LB = np.zeros(n)
+    LB[-1] = 1.0
+    WA, WB = LA @ Mti @ LA, LB @ (LB / MB)
+
+    def step(x: np.ndarray) -> np.ndarray:
+        uB, vh, uA, vA, aA = np.split(x, [n, 2 * n, 3 * n, 4 * n])
+        ut = uA + dT * vA + dT**2 * (0.5 - beta) * aA
+        vt = vA + dT * (1 - gamma) * aA
+        r = -KA @ ut
+        r[-1] = 0.0
+        af = Mti @ r
+        uf, vf = ut + beta * dT**2 * af, vt + gamma * dT * af
+        w0, wf = LA @ vA, LA @ vf
+        lam = 0.0
+        for j in range(1, m + 1):
+            uB = uB + dt * vh
+            vfree = vh - dt * (KB @ uB) / MB
+            s = j / m
+            H = 0.5 * dt * WB + (s if weighted else 1.0) * gamma * dT * WA
+            lam = -(LB @ (0.5 * (vh + vfree)) + (1 - s) * w0 + s * wf) / H
+            vh = vfree + dt * LB * lam / MB
+        da = Mti @ (LA * lam)
+        return np.concatenate([uB, vh, uf + beta * dT**2 * da, vf + gamma * dT * da, af + da])
+
+    A = np.column_stack([step(e) for e in np.eye(5 * n)])
+    return float(np.max(np.abs(np.linalg.eigvals(A))))
+
+
+def long_run(m: int) -> tuple[float, float]:
+    """(max E / E0, final interface-dissipated / E0) of the undamped clamped split bar."""
+    exe = str(Path(sys.executable).parent / "crane-fem")
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [exe, "run", str(ROOT / "demos" / "split_bar.toml"), "-o", tmp, "--no-progress"]
+        for s in (
+            "time.end=200.0",
+            "output.xdmf=false",
+            "contact=[]",
+            "initial.velocity=0.0",
+            "initial.pulse={center=0.7, width=0.1, amplitude=0.01}",
+            "output.every=10",
+            'model.clamp="right"',
+            f"coupling.ratio={m}",
+            "monitor.energy_growth=1e12",
+        ):
+            cmd += ["--set", s]
+        subprocess.run(cmd, check=False, capture_output=True)
+        from crane_fem.io import read_history
+
+        h = read_history(Path(tmp) / "history.csv")
+    e = h["kinetic"] + h["internal"]
+    return float(np.max(e) / e[0]), float(h["interface_dissipated"][-1] / e[0])
+
+
+def main() -> int:
+    cols = ["m", "ρ, H_j weighted (j/m)", "ρ, H constant", "split bar: max E/E0"]
+    print("| " + " | ".join([*cols, "interface dissipated/E0"]) + " |")
+    print("|---|---|---|---|---|")
+    for m in (1, 2, 3, 5, 10, 100):
+        emax, ifd = long_run(m)
+        print(
+            f"| {m} | {spectral_radius(m, True):.6f} | {spectral_radius(m, False):.6f} "
+            f"| {emax:.3g} | {ifd:.3g} |"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
