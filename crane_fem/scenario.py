@@ -324,7 +324,7 @@ class Coupling(_Section):
     """How subdomains are integrated: GC or PH coupling with ΔT = ratio × Δt, or the whole
     mesh as one subdomain with ``scheme`` (the monolithic reference)."""
 
-    method: Literal["gc", "ph", "monolithic"] = "gc"
+    method: Literal["gc", "gc-ec", "ph", "monolithic"] = "gc"
     ratio: PositiveInt = 1
     scheme: Literal["cd-lagrange", "newmark"] | None = None
 
