@@ -13,8 +13,9 @@ Two independent measurements:
    of numpy for two 6-node chains (explicit | implicit, implicit end clamped): its spectral
    radius ρ. ρ > 1 means some mode grows by ρ per macro step however small Δt is.
 
-Both the j/m-weighted interface operator H_j = ½Δt W_E + (j/m) γ ΔT W_I (what THEORY.md
-prescribes and crane_fem implements) and the constant one (j/m → 1) are measured.
+Measured: the j/m-weighted interface operator H_j = ½Δt W_E + (j/m) γ ΔT W_I (THEORY.md §3,
+``coupling.method = "gc"``), the constant one (j/m → 1), and the energy-conserving form
+(``coupling.method = "gc-ec"``, docs/theory-notes.md §6).
 """
 
 from __future__ import annotations
@@ -39,8 +40,10 @@ def _chain(n: int) -> tuple[np.ndarray, np.ndarray]:
     return K, M
 
 
-def spectral_radius(m: int, weighted: bool, n: int = 6) -> float:
-    """ρ of one GC macro step (CD explicit chain | Newmark chain clamped at its far end)."""
+def spectral_radius(m: int, variant: str, n: int = 6) -> float:
+    """ρ of one macro step (CD explicit chain | Newmark chain clamped at its far end) for the
+    interface operator ``variant``: "jm" (H_j weighted by j/m), "const" (j/m → 1) or "ec"
+    (the energy-conserving form of docs/theory-notes.md §6)."""
     KB, MB = _chain(n)
     KA, MA_l = _chain(n)
     MA = np.diag(MA_l)
@@ -58,7 +61,7 @@ def spectral_radius(m: int, weighted: bool, n: int = 6) -> float:
     WA, WB = LA @ Mti @ LA, LB @ (LB / MB)
 
     def step(x: np.ndarray) -> np.ndarray:
-        uB, vh, uA, vA, aA = np.split(x, [n, 2 * n, 3 * n, 4 * n])
+        uB, vh, uA, vA, aA, lam_a = np.split(x, [n, 2 * n, 3 * n, 4 * n, 5 * n])
         ut = uA + dT * vA + dT**2 * (0.5 - beta) * aA
         vt = vA + dT * (1 - gamma) * aA
         r = -KA @ ut
@@ -66,22 +69,30 @@ def spectral_radius(m: int, weighted: bool, n: int = 6) -> float:
         af = Mti @ r
         uf, vf = ut + beta * dT**2 * af, vt + gamma * dT * af
         w0, wf = LA @ vA, LA @ vf
-        lam = 0.0
+        c = 0.5 * (w0 + wf - (1 - gamma) * dT * WA * lam_a[0])
+        lam, S = 0.0, 0.0
         for j in range(1, m + 1):
             uB = uB + dt * vh
             vfree = vh - dt * (KB @ uB) / MB
             s = j / m
-            H = 0.5 * dt * WB + (s if weighted else 1.0) * gamma * dT * WA
-            lam = -(LB @ (0.5 * (vh + vfree)) + (1 - s) * w0 + s * wf) / H
+            if variant == "ec":
+                lam = -(LB @ (0.5 * (vh + vfree)) + c + WA * S) / (0.5 * dt * (WB + WA))
+            else:
+                H = 0.5 * dt * WB + (s if variant == "jm" else 1.0) * gamma * dT * WA
+                lam = -(LB @ (0.5 * (vh + vfree)) + (1 - s) * w0 + s * wf) / H
+            S += dt * lam
             vh = vfree + dt * LB * lam / MB
-        da = Mti @ (LA * lam)
-        return np.concatenate([uB, vh, uf + beta * dT**2 * da, vf + gamma * dT * da, af + da])
+        lam_n = (S / dT - (1 - gamma) * lam_a[0]) / gamma if variant == "ec" else lam
+        da = Mti @ (LA * lam_n)
+        return np.concatenate(
+            [uB, vh, uf + beta * dT**2 * da, vf + gamma * dT * da, af + da, [lam_n]]
+        )
 
-    A = np.column_stack([step(e) for e in np.eye(5 * n)])
+    A = np.column_stack([step(e) for e in np.eye(5 * n + 1)])
     return float(np.max(np.abs(np.linalg.eigvals(A))))
 
 
-def long_run(m: int) -> tuple[float, float]:
+def long_run(m: int, method: str) -> tuple[float, float]:
     """(max E / E0, final interface-dissipated / E0) of the undamped clamped split bar."""
     exe = str(Path(sys.executable).parent / "crane-fem")
     with tempfile.TemporaryDirectory() as tmp:
@@ -95,6 +106,7 @@ def long_run(m: int) -> tuple[float, float]:
             "output.every=10",
             'model.clamp="right"',
             f"coupling.ratio={m}",
+            f"coupling.method='{method}'",
             "monitor.energy_growth=1e12",
         ):
             cmd += ["--set", s]
@@ -107,15 +119,16 @@ def long_run(m: int) -> tuple[float, float]:
 
 
 def main() -> int:
-    cols = ["m", "ρ, H_j weighted (j/m)", "ρ, H constant", "split bar: max E/E0"]
-    print("| " + " | ".join([*cols, "interface dissipated/E0"]) + " |")
-    print("|---|---|---|---|---|")
+    cols = ["m", "ρ gc (H_j, j/m)", "ρ H constant", "ρ gc-ec"]
+    cols += ["gc: max E/E0", "gc: E_Γ/E0", "gc-ec: max E/E0", "gc-ec: E_Γ/E0"]
+    print("| " + " | ".join(cols) + " |")
+    print("|" + "---|" * len(cols))
     for m in (1, 2, 3, 5, 10, 100):
-        emax, ifd = long_run(m)
-        print(
-            f"| {m} | {spectral_radius(m, True):.6f} | {spectral_radius(m, False):.6f} "
-            f"| {emax:.3g} | {ifd:.3g} |"
-        )
+        row = [f"{spectral_radius(m, v):.6f}" for v in ("jm", "const", "ec")]
+        for method in ("gc", "gc-ec"):
+            emax, ifd = long_run(m, method)
+            row += [f"{emax:.4g}", f"{ifd:.3g}"]
+        print(f"| {m} | " + " | ".join(row) + " |")
     return 0
 
 

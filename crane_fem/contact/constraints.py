@@ -55,7 +55,10 @@ class ContactSet:
         return int(self.g0.size)
 
     def _local(self, x: FloatArray) -> FloatArray:
-        return np.bincount(self.rows, weights=self.coeffs * x[self.dofs], minlength=self.p)
+        # float64 also when this rank holds no term (bincount of nothing is int64), so the
+        # buffers of the reductions match on every rank.
+        out = np.bincount(self.rows, weights=self.coeffs * x[self.dofs], minlength=self.p)
+        return out.astype(np.float64, copy=False)
 
     def apply(self, x: FloatArray) -> FloatArray:
         """``L x`` for an owned-DOF array ``x`` (collective)."""

@@ -193,6 +193,10 @@ class CoupledIntegrator:
         self.n = 0
         self._Z: FloatArray | None = None
         self._ec: Callable[[FloatArray], FloatArray] | None = None
+        # gc-ec: mean free implicit interface velocity, cumulated impulses S, W_I S.
+        self._c = np.zeros(self.n_gamma)
+        self._S = np.zeros(self.n_gamma)
+        self._WS = np.zeros(self.n_gamma)
         self._setup_interface_solver()
 
     def _setup_interface_solver(self) -> None:
