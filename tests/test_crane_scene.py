@@ -175,3 +175,45 @@ def test_quick_scene_mpiexec_same_histories(tmp_path) -> None:
         else:
             scale = max(np.max(np.abs(h1[col])), 1e-300)
         assert np.max(np.abs(h1[col] - h2[col])) <= 1e-8 * scale, col
+
+
+@pytest.mark.parametrize(
+    ("override", "fragments"),
+    [
+        (
+            "loading.ground_motion={record='synthetic', pga=5.0}",
+            ["loading.ground_motion", "duration"],
+        ),
+        ("loading.ground_motion.seed='x'", ["loading.ground_motion.seed"]),
+        ("material.damping={ratio=0.02, f1=10.0, f2=5.0}", ["material.damping", "f1"]),
+        ("model.wheel_width=0.08", ["model.wheel_width", "wider than the rail"]),
+        ("model.zone_depth=0.5", ["model.zone_depth"]),
+        ("model.hoisted_mass=-1.0", ["model.hoisted_mass"]),
+    ],
+)
+def test_bad_crane_input_one_line_error(capsys, override, fragments) -> None:
+    """Bad crane keys: one line naming the key, exit 2, before any meshing or run."""
+    assert main(["check", str(QUICK), "--set", override]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0, err
+    for f in fragments:
+        assert f in err, (f, err)
+
+
+def test_missing_mesh_and_record_window_errors(tmp_path, capsys) -> None:
+    """Errors found at run start (every rank): a missing mesh file, a record window past the
+    end of the record; `crane-fem plot` of a directory without a run."""
+    for override, fragment in [
+        ("model.mesh='nope.msh'", "model.mesh"),
+        (
+            "loading.ground_motion={record='el_centro_1940_up', start=99.0}",
+            "loading.ground_motion.start",
+        ),
+    ]:
+        out = tmp_path / fragment
+        assert main(["run", str(QUICK), "-o", str(out), "--set", override]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and fragment in err, err
+    if COMM.rank == 0:
+        assert main(["plot", str(tmp_path / "empty")]) == 2
+        assert "no history.csv" in capsys.readouterr().err
