@@ -502,11 +502,17 @@ def _allowed_keys(section: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
 
 def _format_error(source: str, exc: ValidationError) -> str:
     """One line: ``source: key.path: what is wrong (got value)``."""
-    # An unknown key is usually the root cause (a typo that also leaves a key missing).
-    errors = sorted(exc.errors(), key=lambda e: e["type"] != "extra_forbidden")
+    # An unknown key is usually the root cause (a typo that also leaves a key missing); of a
+    # union "table or array of tables", the table branch speaks for a table.
+    def rank(e: Any) -> tuple[bool, bool]:
+        in_list = any(isinstance(p, str) and p.startswith("list[") for p in e["loc"])
+        return e["type"] != "extra_forbidden", in_list
+
+    errors = sorted(exc.errors(), key=rank)
     err = errors[0]
-    # Drop the discriminator tag pydantic inserts after "model" (model.bar.length -> model.length).
-    raw = tuple(err["loc"])
+    # Drop the tags pydantic inserts: the discriminator after "model" (model.bar.length ->
+    # model.length) and union branches ("function-after[...]", "list[...]").
+    raw = tuple(p for p in err["loc"] if not (isinstance(p, str) and "[" in p))
     loc = tuple(
         p for i, p in enumerate(raw) if not (i > 0 and raw[i - 1] == "model" and p in MODEL_KINDS)
     )

@@ -42,7 +42,7 @@ BAD = [
     (
         "E = 1.0",
         "Young = 1.0",
-        ["material.Young", "unknown key", "allowed here: E, nu, rayleigh, rho"],
+        ["material.Young", "unknown key", "allowed here: E, damping, nu, rayleigh, rho"],
     ),
     ("E = 1.0", 'E = "steel"', ["material.E", "valid number", "'steel'"]),
     ("E = 1.0", "E = -2.0", ["material.E", "greater than 0", "-2.0"]),
