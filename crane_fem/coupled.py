@@ -286,7 +286,7 @@ class CoupledSimulation:
             self.E_int,
             self.I_int,
             ratio if coupled else 1,
-            method if method in ("gc", "gc-ec", "ph") else "gc",
+            "ph" if method == "ph" else "gc",
             li if coupled else None,
             dt=self.dt,
         )

@@ -324,7 +324,7 @@ class Coupling(_Section):
     """How subdomains are integrated: GC or PH coupling with ΔT = ratio × Δt, or the whole
     mesh as one subdomain with ``scheme`` (the monolithic reference)."""
 
-    method: Literal["gc", "gc-ec", "ph", "monolithic"] = "gc"
+    method: Literal["gc", "ph", "monolithic"] = "gc"
     ratio: PositiveInt = 1
     scheme: Literal["cd-lagrange", "newmark"] | None = None
 
@@ -502,6 +502,7 @@ def _allowed_keys(section: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
 
 def _format_error(source: str, exc: ValidationError) -> str:
     """One line: ``source: key.path: what is wrong (got value)``."""
+
     # An unknown key is usually the root cause (a typo that also leaves a key missing); of a
     # union "table or array of tables", the table branch speaks for a table.
     def rank(e: Any) -> tuple[bool, bool]:

@@ -162,8 +162,8 @@ class CoupledIntegrator:
         explicit: the explicit subdomain integrator, or None.
         implicit: the Newmark subdomain integrator, or None.
         ratio: m (ΔT = m Δt); 1 when one side is missing.
-        method: "gc" (THEORY.md §3: j/m-weighted interface operators H_j), "gc-ec" (the
-            energy-conserving form of docs/theory-notes.md §6) or "ph".
+        method: "gc" (THEORY.md §3: j/m-weighted interface operators H_j; weakly unstable
+            over long undamped runs, docs/theory-notes.md §6) or "ph".
         l_implicit: the implicit side's interface rows (L_I).
     """
 
@@ -192,11 +192,6 @@ class CoupledIntegrator:
         self.w_prev = np.zeros(self.n_gamma)  # L_E V_E at the previous micro step
         self.n = 0
         self._Z: FloatArray | None = None
-        self._ec: Callable[[FloatArray], FloatArray] | None = None
-        # gc-ec: mean free implicit interface velocity, cumulated impulses S, W_I S.
-        self._c = np.zeros(self.n_gamma)
-        self._S = np.zeros(self.n_gamma)
-        self._WS = np.zeros(self.n_gamma)
         self._setup_interface_solver()
 
     def _setup_interface_solver(self) -> None:
@@ -223,14 +218,7 @@ class CoupledIntegrator:
         S = self._dinv_sqrt[:, None] * I.W * self._dinv_sqrt[None, :]
         self._s, self._Q = np.linalg.eigh(0.5 * (S + S.T))
 
-    @property
-    def _solver_ec(self) -> Callable[[FloatArray], FloatArray] | None:
-        """(W_E + W_I)⁻¹ of the energy-conserving form (one operator for every micro step)."""
-        if self._ec is None and self.I is not None:
-            self._ec = self._solver_for(0.5 / self.I.gamma)
-        return self._ec
-
-    def _solver_for(self, j: float) -> Callable[[FloatArray], FloatArray] | None:
+    def _solver_for(self, j: int) -> Callable[[FloatArray], FloatArray] | None:
         if self._Q is None:
             return None
         assert self.I is not None
@@ -346,19 +334,11 @@ class CoupledIntegrator:
         fr = E.free(t, E.dt, move=True)
         active = E.contacts.closed(fr["gaps"][n_g:])
         q = fr["q"].copy()
-        jm = self.method != "gc-ec"
-        solver = None
+        solver = self._solver_for(j) if n_g and imposed is None else None
         if n_g and imposed is None:
-            solver = self._solver_for(j) if jm else self._solver_ec
-            assert self.I is not None
-            if jm:
-                wI = (1.0 - j / m) * wI0 + (j / m) * wIf
-            else:
-                # Energy-conserving form (docs/theory-notes.md §6): the implicit interface
-                # velocity seen at t_j is c + ½ W_I (S_{j−1} + S_j), S_j the cumulated link
-                # impulses; the Λ̂_j-free part is c + W_I S_{j−1}.
-                wI = self._c + self._WS
+            wI = (1.0 - j / m) * wI0 + (j / m) * wIf
             q[:n_g] = (fr["l_old"][:n_g] + fr["q"][:n_g]) + 2.0 * wI
+            assert self.I is not None
         if n_g and imposed is None and solver is not None:
             # Interface rows eliminated with the diagonalised operator; the contact rows
             # (their Schur complement) solved as an LCP.
@@ -369,7 +349,7 @@ class CoupledIntegrator:
         elif n_g and imposed is None:
             assert self.I is not None
             A = E.W.copy()
-            A[:n_g, :n_g] += (2.0 * j * self.I.gamma if jm else 1.0) * self.I.W
+            A[:n_g, :n_g] += 2.0 * j * self.I.gamma * self.I.W
             lam = solve_mixed_lcp(A, q, n_g, active, solver)
         else:
             A = E.W
@@ -390,10 +370,6 @@ class CoupledIntegrator:
             terms["phys_work"] = float(np.dot(lbar / E.dt, du))
         self.lam_prev = lam[:n_g].copy()
         self.w_prev = w
-        if n_g and imposed is None and not jm:
-            assert self.I is not None
-            self._S += lam[:n_g]
-            self._WS = self.I.W @ self._S
         return lam, fr["gaps"], terms, w
 
     def step(self) -> MacroRecord:
@@ -417,13 +393,8 @@ class CoupledIntegrator:
         if E is not None:
             wI0 = wIf = np.zeros(n_g)
             if self.coupled:
-                assert self.LI is not None and I is not None
+                assert self.LI is not None
                 wI0, wIf = self.LI.apply(vI0)[:n_g], self.LI.apply(vf)[:n_g]
-                # Energy-conserving form: mean free implicit interface velocity over the step.
-                g = I.gamma
-                self._c = 0.5 * (wI0 + wIf - (1.0 - g) * self.dT * (I.W @ self.lam_macro_prev))
-                self._S = np.zeros(n_g)
-                self._WS = np.zeros(n_g)
             imposed_ramp = None
             if self.coupled and self.method == "ph":
                 lam_m = self._ph_solve(t0, wIf)
@@ -456,11 +427,6 @@ class CoupledIntegrator:
         if I is not None:
             I.accept(uf, vf, af)
             lam_force = lam[:n_g] / self.dt if (self.coupled and lam.size) else np.zeros(0)
-            if self.coupled and self.method == "gc-ec":
-                # The implicit side receives the explicit side's impulse S over the step:
-                # ΔT ((1 − γ) Λ_n + γ Λ_n+1) = S.
-                g = I.gamma
-                lam_force = (self._S / self.dT - (1.0 - g) * self.lam_macro_prev) / g
             if self.coupled:
                 I.correct(lam_force)
             f1 = I.load(t1)
