@@ -320,8 +320,7 @@ class CoupledSimulation:
             return None
         E = self.E_int
         n_g = E.n_gamma
-        E.model.K.mult(E._vecs[0], E._vecs[1])  # K u into E.ku
-        r = E.load(0.0) - E.ku
+        r = E.residual(0.0)
         st = E.stack
         sel = st.rows < n_g
         lam = np.zeros(n_g)

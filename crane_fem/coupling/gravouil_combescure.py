@@ -72,6 +72,11 @@ class ExplicitCD:
         self.model.K.mult(self._vecs[2], self._vecs[3])
         return self._kw.copy()
 
+    def residual(self, t: float) -> FloatArray:
+        """Out-of-balance force F(t) − K U of the current displacement (collective)."""
+        self.model.K.mult(self._vecs[0], self._vecs[1])
+        return self.load(t) - self.ku
+
     def damping(self, v: FloatArray) -> FloatArray:
         m = self.model
         out = m.alpha * m.mass * v if m.alpha else np.zeros_like(v)
