@@ -109,7 +109,9 @@ def main(argv: list[str] | None = None) -> int:
                 f"energy balance error {s['energy_balance_error']:.2e}; "
                 f"{s['contact_intervals']} contact interval(s)"
             )
-            print(f"crane-fem: outputs in {outdir}/ (history.csv, summary.json, solution.xdmf)")
+            xdmf = sorted(p.name for p in Path(outdir).glob("*.xdmf"))
+            files = ["history.csv", "summary.json", *xdmf]
+            print(f"crane-fem: outputs in {outdir}/ ({', '.join(files)})")
         return 0
     except ScenarioError as exc:
         print(f"crane-fem: error: {exc}", file=sys.stderr)
