@@ -94,13 +94,15 @@ def solve_mixed_lcp_blocks(
     q_c: FloatArray,
     active: npt.NDArray[np.bool_],
     cc_diagonal: bool | None = None,
+    ec_zero: bool = False,
 ) -> tuple[FloatArray, FloatArray]:
     """:func:`solve_mixed_lcp` given by blocks, the equality block only through ``solve_eq``.
 
     Only the active columns of ``A_ec`` that are not zero are passed to ``solve_eq`` (a
     contact point sharing no DOF with the equality rows costs nothing), so n_e × n_e work is
     done once per call plus once per coupled active contact. ``cc_diagonal`` may tell that
-    ``A_cc`` is diagonal (checked otherwise). Not collective.
+    ``A_cc`` is diagonal (checked otherwise), ``ec_zero`` that ``A_ec`` is zero (no contact
+    shares a DOF with an equality row: two independent problems). Not collective.
 
     Returns:
         ``(z_e, z_c)``.
@@ -109,6 +111,9 @@ def solve_mixed_lcp_blocks(
     z_e = -solve_eq(q_e)
     c = np.flatnonzero(active)
     if c.size == 0:
+        return z_e, z_c
+    if ec_zero and cc_diagonal:
+        z_c[c] = np.maximum(0.0, -q_c[c] / np.diagonal(A_cc)[c])
         return z_e, z_c
     Aec = A_ec[:, c]
     coupled = np.flatnonzero(np.any(Aec != 0.0, axis=0))

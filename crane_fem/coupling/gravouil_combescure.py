@@ -215,6 +215,7 @@ class CoupledIntegrator:
         self._W_ec = E.W[:n_g, n_g:]
         self._W_cc = E.W[n_g:, n_g:]
         self._cc_diagonal = bool(np.all(self._W_cc == np.diag(np.diag(self._W_cc))))
+        self._ec_zero = not np.any(self._W_ec)
         Wee = E.W[:n_g, :n_g]
         d = np.diag(Wee).copy()
         if np.any(Wee != np.diag(d)) or np.any(d <= 0.0):
@@ -349,7 +350,14 @@ class CoupledIntegrator:
             # (their Schur complement) solved as an LCP.
             lam = np.empty(E.stack.p)
             lam[:n_g], lam[n_g:] = solve_mixed_lcp_blocks(
-                solver, self._W_ec, self._W_cc, q[:n_g], q[n_g:], active, self._cc_diagonal
+                solver,
+                self._W_ec,
+                self._W_cc,
+                q[:n_g],
+                q[n_g:],
+                active,
+                self._cc_diagonal,
+                self._ec_zero,
             )
         elif n_g and imposed is None:
             assert self.I is not None
