@@ -9,7 +9,8 @@ interpenetration F/k_p, which is removed from the gaps of the dynamic run (they 
 
 The springs act in z only, so the trolley keeps three rigid modes (x, y translation and
 rotation about z). They are removed by an isostatic support, x and y at one wheel-patch vertex
-and x at the diagonally opposite one: with gravity along z no horizontal load reaches the
+and x at the diagonally opposite one (picked by position, not by number, so every mesh
+distribution supports the same vertices): with gravity along z no horizontal load reaches the
 trolley, so these supports carry no force (their reaction is checked and reported).
 """
 
@@ -144,9 +145,18 @@ def static_preload(
         if idx is not None:
             K.setValues(idx, idx, zero.ravel().tolist(), addv=True)  # addv=True: ADD_VALUES
     K.assemble()
-    # Isostatic support of the trolley: x, y at pair 0 of wheel 1, x at pair 0 of wheel 4.
-    a = block_of[int(pairs[np.flatnonzero(wheel_of_pair == 1)[0], 0])]
-    b = block_of[int(pairs[np.flatnonzero(wheel_of_pair == 4)[0], 0])]
+    # Isostatic support of the trolley: x, y at the wheel-1 patch vertex of smallest x + y,
+    # x at the wheel-4 patch vertex of largest x + y — chosen by position, so the same
+    # vertices whatever the mesh distribution and numbering.
+    own_v = np.flatnonzero(np.isin(gv[:n_own], pairs[:, 0]))
+    xy = V.tabulate_dof_coordinates()[own_v, :2]
+    cand: dict[int, float] = {}
+    for ids, s_xy in comm.allgather((gv[:n_own][own_v], xy.sum(axis=1))):
+        cand.update(zip(ids.tolist(), s_xy.tolist(), strict=True))
+    w1 = [int(v) for v in pairs[wheel_of_pair == 1, 0]]
+    w4 = [int(v) for v in pairs[wheel_of_pair == 4, 0]]
+    a = block_of[min(w1, key=lambda v: (round(cand[v], 9), v))]
+    b = block_of[max(w4, key=lambda v: (round(cand[v], 9), -v))]
     lo, hi = K.getOwnershipRange()
     own_support = np.array(
         [d for d in (bs * a, bs * a + 1, bs * b) if lo <= d < hi], dtype=np.int32
@@ -194,12 +204,15 @@ def static_preload(
 
     # Unilateral pairs by a primal–dual active set: open the pairs in tension, close the
     # open ones that interpenetrate, until both sets are stable (finite: a few passes).
+    # A pair whose force is zero to round-off (1e-6 of the largest) keeps its state, so that
+    # the summation order (serial or MPI) cannot pick another of two equivalent active sets.
     active = np.ones(pairs.shape[0], dtype=bool)
     for _ in range(50):
         disp, support_reaction = solve(active)
         gap = disp[pairs[:, 0], 2] - disp[pairs[:, 1], 2]
         force = np.where(active, -k_p * gap, 0.0)  # compressive force on the wheel
-        new = (active & (force > 0.0)) | (~active & (gap < 0.0))
+        tol = 1e-6 * float(np.max(np.abs(force), initial=0.0))
+        new = (active & (force > -tol)) | (~active & (gap < -tol / k_p))
         if np.array_equal(new, active):
             break
         active = new
