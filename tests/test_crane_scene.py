@@ -2,6 +2,7 @@
 figures and ParaView output, and serial = mpiexec -n 2."""
 
 import json
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -217,3 +218,38 @@ def test_missing_mesh_and_record_window_errors(tmp_path, capsys) -> None:
     if COMM.rank == 0:
         assert main(["plot", str(tmp_path / "empty")]) == 2
         assert "no history.csv" in capsys.readouterr().err
+
+
+PV_SCRIPT = """
+import json, sys
+from paraview.simple import Xdmf3ReaderT
+out = {}
+for f in sys.argv[1:]:
+    r = Xdmf3ReaderT(FileName=[f])
+    r.UpdatePipeline(r.TimestepValues[-1])
+    info = r.GetDataInformation()
+    out[f] = {"cells": info.GetNumberOfCells(), "times": len(r.TimestepValues),
+              "point": sorted(r.PointData.keys()), "cell": sorted(r.CellData.keys())}
+print(json.dumps(out))
+"""
+
+
+@pytest.mark.serial
+@pytest.mark.skipif(shutil.which("pvpython") is None, reason="ParaView (pvpython) not installed")
+def test_quick_scene_xdmf_opens_in_paraview(quick_runs, tmp_path) -> None:
+    """What a user does: ParaView's Xdmf3 reader opens both subdomain files with every field at
+    every output time (dolfinx writes one grid per function: ParaView shows one block each)."""
+    script = tmp_path / "pv_check.py"
+    script.write_text(PV_SCRIPT)
+    files = [str(p) for p in sorted((quick_runs / "heterogeneous").glob("solution_*.xdmf"))]
+    res = subprocess.run(["pvpython", str(script), *files], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    info = json.loads(res.stdout.strip().splitlines()[-1])
+    for f in files:
+        _, topo, fields = read_xdmf(Path(f))
+        frames = len(fields["displacement"])
+        got = info[f]
+        assert got["times"] == frames
+        assert got["cells"] == len(fields) * topo.shape[0]  # one block per function
+        assert {"displacement", "velocity"} <= set(got["point"])
+        assert {"von_mises", "subdomain"} <= set(got["cell"])
