@@ -83,15 +83,12 @@ class ContactSet:
 
     def add_transpose(self, lam: FloatArray, out: FloatArray, scale: FloatArray | float) -> None:
         """``out += scale * Lᵀ lam`` on owned DOFs (not collective); ``scale`` may be per DOF."""
-        contrib = np.zeros_like(out)
-        np.add.at(contrib, self.dofs, self.coeffs * lam[self.rows])
-        out += scale * contrib
+        out += scale * self.transpose(lam, out.size)
 
     def transpose(self, lam: FloatArray, n_owned: int) -> FloatArray:
         """``Lᵀ lam`` as a new owned-DOF array (not collective)."""
-        out = np.zeros(n_owned)
-        np.add.at(out, self.dofs, self.coeffs * lam[self.rows])
-        return out
+        out = np.bincount(self.dofs, weights=self.coeffs * lam[self.rows], minlength=n_owned)
+        return out.astype(np.float64, copy=False)
 
     def delassus(self, minv: FloatArray) -> FloatArray:
         """``W = L M⁻¹ Lᵀ`` (p × p, dense) for a diagonal M⁻¹ given on owned DOFs (collective)."""
