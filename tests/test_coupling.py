@@ -318,3 +318,37 @@ def test_coupled_mpiexec_two_ranks_same_histories(tmp_path, case) -> None:
             else np.max(np.abs(h1[col]))
         )
         assert np.max(np.abs(h1[col] - h2[col])) <= 1e-10 * max(scale, 1e-300), col
+
+
+def test_growing_coupled_run_stops_with_diagnosis(shared_tmp, capsys) -> None:
+    """A diverging coupled run stops with one line naming the subdomain, the macro step, the
+    energy the interface created and Δt against its critical step; the files stay valid.
+    (The divergence used here is GC's own weak instability, m = 2, no dissipation:
+    docs/theory-notes.md §6.)"""
+    from crane_fem.cli import main
+    from crane_fem.io import read_history
+
+    demo = Path(__file__).parent.parent / "demos" / "split_bar.toml"
+    out = shared_tmp / "growing"
+    args = ["run", str(demo), "-o", str(out), "--no-progress"]
+    for s in (
+        "time.end=200.0",
+        "output.xdmf=false",
+        "contact=[]",
+        "initial.velocity=0.0",
+        "initial.pulse={center=0.7, width=0.1, amplitude=0.01}",
+        'model.clamp="right"',
+        "coupling.ratio=2",
+        "output.every=10",
+    ):
+        args += ["--set", s]
+    assert main(args) == 3
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0, err
+    for fragment in ("subdomain 'contact_zone'", "macro step", "interface has created", "critical"):
+        assert fragment in err, (fragment, err)
+    h = read_history(out / "history.csv")
+    assert h["t"].size > 10 and all(np.all(np.isfinite(v)) for v in h.values())
+    import json
+
+    assert json.loads((out / "summary.json").read_text())["status"] == "unstable"
