@@ -319,9 +319,11 @@ def mesh_info() -> CraneMeshInfo:
         )
         if len(nodes) == 0:
             raise ScenarioError(f"crane mesh: {name} has no periodic (paired) nodes")
-        contact_pairs.append(
-            (np.asarray(nodes, dtype=np.int64), np.asarray(master_nodes, dtype=np.int64))
-        )
+        # gmsh lists the correspondence in no fixed order (it varies between runs): sort by
+        # the wheel node's tag, so pair k is the same node pair in every run.
+        wheel_nodes = np.asarray(nodes, dtype=np.int64)
+        order = np.argsort(wheel_nodes, kind="stable")
+        contact_pairs.append((wheel_nodes[order], np.asarray(master_nodes, dtype=np.int64)[order]))
     return CraneMeshInfo(volume_groups, surface_groups, contact_pairs)
 
 
