@@ -24,6 +24,7 @@ from __future__ import annotations
 import subprocess
 import sys
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -41,19 +42,23 @@ def _chain(n: int) -> tuple[np.ndarray, np.ndarray]:
     return K, M
 
 
-def spectral_radius(m: int, variant: str, n: int = 6) -> float:
-    """ρ of one macro step (CD explicit chain | Newmark chain clamped at its far end) for the
-    interface operator ``variant``: "jm" (H_j weighted by j/m), "const" (j/m → 1) or "ec"
-    (the energy-conserving form of docs/theory-notes.md §6)."""
+def _macro_step(
+    m: int, variant: str, n: int, clamp: bool
+) -> tuple[Callable[[np.ndarray], np.ndarray], float, np.ndarray, np.ndarray]:
+    """One macro step of two n-node chains (CD explicit | Newmark average acceleration, the
+    implicit far end clamped or free) coupled by the interface operator ``variant``: "jm" (H_j
+    weighted by j/m), "const" (j/m → 1) or "ec" (the energy-conserving form of
+    docs/theory-notes.md §6). State: (u_E, v_E,j−½, u_I, v_I, a_I, Λ_I). Returns the step,
+    Δt and the explicit chain's K and lumped M."""
     KB, MB = _chain(n)
     KA, MA_l = _chain(n)
-    MA = np.diag(MA_l)
     dt = 0.9 * 2.0 / np.sqrt(np.max(np.linalg.eigvalsh(KB / np.sqrt(np.outer(MB, MB)))))
     dT, beta, gamma = m * dt, 0.25, 0.5
-    Mt = MA + beta * dT**2 * KA
-    Mt[-1, :] = 0.0
-    Mt[:, -1] = 0.0
-    Mt[-1, -1] = 1.0
+    Mt = np.diag(MA_l) + beta * dT**2 * KA
+    if clamp:
+        Mt[-1, :] = 0.0
+        Mt[:, -1] = 0.0
+        Mt[-1, -1] = 1.0
     Mti = np.linalg.inv(Mt)
     LA = np.zeros(n)
     LA[0] = -1.0
@@ -66,7 +71,8 @@ def spectral_radius(m: int, variant: str, n: int = 6) -> float:
         ut = uA + dT * vA + dT**2 * (0.5 - beta) * aA
         vt = vA + dT * (1 - gamma) * aA
         r = -KA @ ut
-        r[-1] = 0.0
+        if clamp:
+            r[-1] = 0.0
         af = Mti @ r
         uf, vf = ut + beta * dT**2 * af, vt + gamma * dT * af
         w0, wf = LA @ vA, LA @ vf
@@ -89,6 +95,12 @@ def spectral_radius(m: int, variant: str, n: int = 6) -> float:
             [uB, vh, uf + beta * dT**2 * da, vf + gamma * dT * da, af + da, [lam_n]]
         )
 
+    return step, dt, KB, MB
+
+
+def spectral_radius(m: int, variant: str, n: int = 6) -> float:
+    """ρ of one macro step of two 6-node chains, implicit far end clamped."""
+    step, _, _, _ = _macro_step(m, variant, n, clamp=True)
     A = np.column_stack([step(e) for e in np.eye(5 * n + 1)])
     return float(np.max(np.abs(np.linalg.eigvals(A))))
 
@@ -96,45 +108,19 @@ def spectral_radius(m: int, variant: str, n: int = 6) -> float:
 def reflected(m: int, variant: str, n: int = 200, width: float = 30.0) -> float:
     """Fraction of a right-travelling Gaussian pulse's energy left in the explicit chain after
     it has crossed into the implicit one (two n-node chains, free far end)."""
-    KB, MB = _chain(n)
-    KA, MA_l = _chain(n)
-    MA = np.diag(MA_l)
-    dt = 0.9 * 2.0 / np.sqrt(np.max(np.linalg.eigvalsh(KB / np.sqrt(np.outer(MB, MB)))))
-    dT, beta, gamma = m * dt, 0.25, 0.5
-    Mti = np.linalg.inv(MA + beta * dT**2 * KA)
-    LA = np.zeros(n)
-    LA[0] = -1.0
-    LB = np.zeros(n)
-    LB[-1] = 1.0
-    WA, WB = LA @ Mti @ LA, LB @ (LB / MB)
+    step, dt, KB, MB = _macro_step(m, variant, n, clamp=False)
     x = np.arange(n)
     uB = 0.01 * np.exp(-(((x - n / 2) / width) ** 2))
     vh = -np.gradient(uB) - 0.5 * dt * (KB @ uB) / MB
-    uA, vA, aA, lam_a = np.zeros(n), np.zeros(n), np.zeros(n), 0.0
-    e0 = 0.5 * vh @ (MB * vh) + 0.5 * uB @ KB @ uB
-    for _ in range(int(1.5 * n / dT)):
-        ut = uA + dT * vA + dT**2 * (0.5 - beta) * aA
-        vt = vA + dT * (1 - gamma) * aA
-        af = Mti @ (-KA @ ut)
-        uf, vf = ut + beta * dT**2 * af, vt + gamma * dT * af
-        w0, wf = LA @ vA, LA @ vf
-        c = 0.5 * (w0 + wf - (1 - gamma) * dT * WA * lam_a)
-        lam, S = 0.0, 0.0
-        for j in range(1, m + 1):
-            uB = uB + dt * vh
-            vfree = vh - dt * (KB @ uB) / MB
-            s = j / m
-            if variant == "ec":
-                lam = -(LB @ (0.5 * (vh + vfree)) + c + WA * S) / (0.5 * dt * (WB + WA))
-            else:
-                H = 0.5 * dt * WB + s * gamma * dT * WA
-                lam = -(LB @ (0.5 * (vh + vfree)) + (1 - s) * w0 + s * wf) / H
-            S += dt * lam
-            vh = vfree + dt * LB * lam / MB
-        lam_a = (S / dT - (1 - gamma) * lam_a) / gamma if variant == "ec" else lam
-        da = Mti @ (LA * lam_a)
-        aA, vA, uA = af + da, vf + gamma * dT * da, uf + beta * dT**2 * da
-    return float((0.5 * vh @ (MB * vh) + 0.5 * uB @ KB @ uB) / e0)
+
+    def energy(u: np.ndarray, v: np.ndarray) -> float:
+        return float(0.5 * v @ (MB * v) + 0.5 * u @ KB @ u)
+
+    e0 = energy(uB, vh)
+    state = np.concatenate([uB, vh, np.zeros(3 * n + 1)])
+    for _ in range(int(1.5 * n / (m * dt))):
+        state = step(state)
+    return energy(state[:n], state[n : 2 * n]) / e0
 
 
 def long_run(m: int) -> tuple[float, float]:
