@@ -18,13 +18,15 @@
 
 from __future__ import annotations
 
-import csv
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+
+from crane_fem.io.history import read_history
 
 __all__ = ["Run", "load_runs", "plot_outputs", "render_peak"]
 
@@ -50,12 +52,10 @@ class Run:
 
 
 def _read_history(path: Path) -> dict[str, FloatArray]:
-    with path.open(newline="") as fh:
-        rows = list(csv.reader(fh))
-    if len(rows) < 2:
+    history = read_history(path)
+    if not history or history[next(iter(history))].size == 0:
         raise ValueError(f"{path}: no data rows")
-    header, data = rows[0], np.array(rows[1:], dtype=np.float64)
-    return {name: data[:, i] for i, name in enumerate(header)}
+    return history
 
 
 def load_runs(outdir: Path) -> list[Run]:
@@ -79,6 +79,15 @@ def load_runs(outdir: Path) -> list[Run]:
 
 def _wheels(run: Run) -> list[int]:
     return [k for k in range(1, 5) if f"wheel{k}_wheel_uz" in run.history]
+
+
+def _save(fig: Any, path: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
 
 
 def _pair_figure(runs: list[Run], quantity: str, unit: str, scale: float, path: Path) -> Path:
@@ -107,10 +116,7 @@ def _pair_figure(runs: list[Run], quantity: str, unit: str, scale: float, path: 
                 ax.set_title(run.label)
         axes[-1, j].set_xlabel("t (s)")
     axes[0, 0].legend(loc="best", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def _energy_figure(runs: list[Run], path: Path) -> Path:
@@ -139,10 +145,7 @@ def _energy_figure(runs: list[Run], path: Path) -> Path:
         ax.set_ylabel("energy (J)")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def _interface_figure(runs: list[Run], path: Path) -> Path | None:
@@ -169,10 +172,7 @@ def _interface_figure(runs: list[Run], path: Path) -> Path | None:
         ax.set_xlabel("t (s)")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def _force_figure(runs: list[Run], path: Path) -> Path | None:
@@ -193,10 +193,7 @@ def _force_figure(runs: list[Run], path: Path) -> Path | None:
         ax.grid(alpha=0.3)
     axes[0, 0].legend(fontsize=8)
     axes[-1, 0].set_xlabel("t (s)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
+    return _save(fig, path)
 
 
 def render_peak(run_dir: Path, path: Path, warp: float | None = None) -> Path | None:

@@ -114,23 +114,31 @@ class EnergyGrowthMonitor:
     _last_work: float = 0.0
     _initialized: bool = False
 
+    def growth(self, kinetic: float, internal: float, external_work: float) -> str | None:
+        """Account for one record's external work; the reason to stop if the kinetic energy
+        exceeds ``factor`` × the energy supplied so far, else None."""
+        if not self._initialized:
+            self._supplied = abs(kinetic) + abs(internal)
+            self._last_work = external_work
+            self._initialized = True
+        self._supplied += abs(external_work - self._last_work)
+        self._last_work = external_work
+        if kinetic > self.factor * max(self._supplied, 1e-300):
+            return (
+                f"kinetic energy {kinetic:.3e} J exceeds {self.factor:g}× the energy "
+                f"supplied ({self._supplied:.3e} J)"
+            )
+        return None
+
     def check(self, rec: StepRecord) -> None:
         """Raise :class:`UnstableRunError` on divergence (same verdict on every rank)."""
         en = rec.energy
-        if not self._initialized:
-            self._supplied = abs(en.kinetic) + abs(en.internal)
-            self._last_work = en.external_work
-            self._initialized = True
-        self._supplied += abs(en.external_work - self._last_work)
-        self._last_work = en.external_work
+        grown = self.growth(en.kinetic, en.internal, en.external_work)
         values = (en.kinetic, en.internal, en.external_work, en.contact_dissipated)
         if not all(math.isfinite(x) for x in values):
             reason = "non-finite energy (NaN/Inf)"
-        elif en.kinetic > self.factor * max(self._supplied, 1e-300):
-            reason = (
-                f"kinetic energy {en.kinetic:.3e} J exceeds {self.factor:g}× the energy "
-                f"supplied ({self._supplied:.3e} J)"
-            )
+        elif grown is not None:
+            reason = grown
         else:
             return
         ratio = self.dt / self.dt_critical if self.dt_critical > 0 else math.inf
