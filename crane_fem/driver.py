@@ -327,6 +327,7 @@ def run_coupled(
     columns += [f"gap_{g}" for g in groups_c] + [f"force_{g}" for g in groups_c]
     columns += [f"probe_u{c}" for c in range(bs)] + [f"probe_v{c}" for c in range(bs)]
     columns += ["interface_force_norm", "interface_velocity_jump"]
+    columns += ["interface_impulse", "interface_impulse_defect"]
     # Crane: one wheel/rail node pair per wheel (the first pair of each patch), vertical
     # displacement and velocity on both sides (the paper's Figs. 5–6).
     pair_probe: list[tuple[int, int, int]] = []
@@ -465,6 +466,8 @@ def run_coupled(
                             )
                         )
                     row["interface_velocity_jump"] = jump
+                    row["interface_impulse"] = rec.impulse_explicit
+                    row["interface_impulse_defect"] = rec.impulse_defect
                     if pair_probe:
                         assert sim.E_sub is not None and rec.explicit_u is not None
                         assert rec.explicit_v is not None

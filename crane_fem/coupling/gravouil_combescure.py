@@ -149,6 +149,13 @@ class MacroRecord:
     gaps: FloatArray
     interface_impulse: FloatArray
     micro: list[tuple[float, bool]] = field(default_factory=list)
+    #: ‖Σ ½Δt (Λ_j−1 + Λ_j)‖ (N·s): the interface impulse the explicit side received since
+    #: t = 0.
+    impulse_explicit: float = 0.0
+    #: ‖Σ ½Δt (Λ_j−1 + Λ_j) − Σ ½ΔT (Λ_n + Λ_n+1)‖ (N·s): impulse the explicit side
+    #: received that the implicit side (paid with the macro-step multipliers) did not; zero
+    #: for m = 1.
+    impulse_defect: float = 0.0
 
 
 ENERGY_KEYS = [
@@ -195,6 +202,11 @@ class CoupledIntegrator:
         self.lam_prev = np.zeros(self.n_gamma)  # Λ̂ of the previous micro step
         self.lam_macro_prev = np.zeros(self.n_gamma)  # Λ (force) at the start of the step
         self.w_prev = np.zeros(self.n_gamma)  # L_E V_E at the previous micro step
+        # Interface impulses since t = 0, explicit side (Σ Δt Λ_j) and implicit side
+        # (trapezoid of the macro-step multipliers): their difference is momentum one side
+        # received and the other did not.
+        self.impulse_E = np.zeros(self.n_gamma)
+        self.impulse_I = np.zeros(self.n_gamma)
         self.n = 0
         self._Z: FloatArray | None = None
         self._setup_interface_solver()
@@ -327,6 +339,8 @@ class CoupledIntegrator:
             gaps[n_g:] if gaps.size else np.zeros(0),
             lam[:n_g] / self.dt if lam.size else np.zeros(0),
             micro,
+            float(np.linalg.norm(self.impulse_E)),
+            float(np.linalg.norm(self.impulse_E - self.impulse_I)),
         )
 
     # ------------------------------------------------------------------------------------
@@ -417,7 +431,10 @@ class CoupledIntegrator:
                 imposed = None
                 if imposed_ramp is not None:
                     imposed = E.dt * ((1 - j / m) * self.lam_macro_prev + (j / m) * imposed_ramp)
+                lam_before = self.lam_prev.copy()
                 lam, gaps, terms, _ = self._micro(j, tj, wI0, wIf, imposed)
+                if self.coupled:  # trapezoid over [t_j−1, t_j], as the implicit side's
+                    self.impulse_E += 0.5 * (lam_before + lam[:n_g])
                 for k in e_local:
                     e_local[k] += terms[k]
                 gc_e += terms.get("gc_work", 0.0)
@@ -442,6 +459,7 @@ class CoupledIntegrator:
             lam_force = lam[:n_g] / self.dt if (self.coupled and lam.size) else np.zeros(0)
             if self.coupled:
                 I.correct(lam_force)
+                self.impulse_I += 0.5 * self.dT * (self.lam_macro_prev + lam_force)
             f1 = I.load(t1)
             cv1 = I.damping_action(I.v)
             vbar = 0.5 * (vI0 + I.v)
