@@ -4,7 +4,9 @@
 
 Runs the scenario (default ``demos/crane.toml``) heterogeneous, then fully explicit
 (``coupling.method = "monolithic"``), one after the other on an otherwise idle machine, then
-``crane-fem plot``; prints the comparison (pair-displacement L2 differences, lift-off episodes,
+``crane-fem plot``; then the explicit run once more with the record scaled 0.5 % higher (how
+much the scene itself moves under a small change of its input). Prints the comparison
+(pair-displacement L2 differences over the run and up to the first landing, lift-off episodes,
 interface-dissipated energy, wall-time ratio) as the Markdown block kept in RESULTS.md.
 """
 
@@ -14,7 +16,11 @@ import argparse
 import json
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
+
+from crane_fem.compare import pair_l2
+from crane_fem.plotting import load_runs
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -34,22 +40,47 @@ def main() -> int:
         subprocess.run(cmd, check=True)
     subprocess.run([exe, "plot", str(out)], check=True)
     cmp = json.loads((out / "comparison.json").read_text())
+    # Conditioning of the scene: the fully explicit run again with the record scaled 0.5 %
+    # higher, compared with the reference explicit run by the same measure. Differences of
+    # the heterogeneous run of this size say as much about the scene as about the coupling.
+    gm = tomllib.loads(Path(args.scenario).read_text())["loading"]["ground_motion"]
+    perturbed: dict[int, tuple[float, float]] = {}
+    if isinstance(gm, dict):
+        scale = 1.005 * float(gm.get("scale", 1.0))
+        p_dir = out.parent / f"{out.name}_perturbed"
+        cmd = [exe, "run", args.scenario, "-o", str(p_dir), "--no-progress"]
+        cmd += ["--set", "coupling.method='monolithic'"]
+        cmd += ["--set", f"loading.ground_motion.scale={scale!r}"]
+        subprocess.run(cmd, check=True)
+        runs = {r.path.name: r for r in load_runs(out)}
+        perturbed = pair_l2(load_runs(p_dir)[0], runs["explicit"])
     het = json.loads((out / "heterogeneous" / "summary.json").read_text())
     print(f"\n### Crane scene `{Path(args.scenario).name}` (python benchmarks/crane.py)\n")
     print(
         f"Δt = {het['dt']:.4e} s (critical {het['dt_critical']:.4e} s), m = {het['ratio']}, "
         f"{het['micro_steps']} micro steps, {het['interface_dofs']} interface DOFs.\n"
     )
-    cols = ["wheel", "L2(u_z − u_z0) wheel side", "rail side", "L2(u_z)"]
-    cols += ["lift-offs het. / expl.", "onset shift (macro steps)"]
+    t_land = cmp.get("first_landing_s")
+    cols = ["wheel", "L2(u_z − u_z0) wheel / rail side", "same, up to the first landing"]
+    cols += ["explicit, record +0.5 %", "lift-offs het. / expl.", "onset shift (macro steps)"]
+    print(f"First landing (explicit run): t = {t_land} s.\n")
     print("| " + " | ".join(cols) + " |")
     print("|---|---|---|---|---|---|")
+
+    def pct(a: float, b: float) -> str:
+        return f"{100 * a:.2f} / {100 * b:.2f} %"
+
     for k, w in cmp["wheels"].items():
         shift = w.get("onset_shift_macro_steps")
-        wd, rd = 100 * w["wheel_uz_l2_dynamic"], 100 * w["rail_uz_l2_dynamic"]
+        land = (
+            pct(w["wheel_uz_l2_to_first_landing"], w["rail_uz_l2_to_first_landing"])
+            if "wheel_uz_l2_to_first_landing" in w
+            else "—"
+        )
+        pert = pct(*perturbed[int(k)]) if int(k) in perturbed else "—"
         print(
-            f"| {k} | {wd:.2f} % | {rd:.2f} % "
-            f"| {100 * w['wheel_uz_l2_total']:.3f} % | {len(w['lift_offs_heterogeneous'])} / "
+            f"| {k} | {pct(w['wheel_uz_l2_dynamic'], w['rail_uz_l2_dynamic'])} | {land} "
+            f"| {pert} | {len(w['lift_offs_heterogeneous'])} / "
             f"{len(w['lift_offs_explicit'])} | {'—' if shift is None else f'{shift:.1f}'} |"
         )
     e_max = cmp["interface_dissipated_max_abs_J"]

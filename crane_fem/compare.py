@@ -26,7 +26,14 @@ import numpy.typing as npt
 
 from crane_fem.plotting import Run, load_runs
 
-__all__ = ["compare_runs", "lift_off_episodes", "separations", "write_comparison"]
+__all__ = [
+    "compare_runs",
+    "first_landing",
+    "lift_off_episodes",
+    "pair_l2",
+    "separations",
+    "write_comparison",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -59,24 +66,54 @@ def _rel_l2(a: FloatArray, ref: FloatArray) -> float:
     return float(np.linalg.norm(a - ref)) / den if den > 0 else float(np.linalg.norm(a - ref))
 
 
+def pair_l2(run: Run, ref: Run, t_end: float | None = None) -> dict[int, tuple[float, float]]:
+    """Per wheel, the relative L2 differences (wheel side, rail side) of u_z(t) − u_z(0) of
+    the probed contact node pair between ``run`` and ``ref`` over [0, ``t_end``] (the whole
+    run by default), ``ref`` interpolated to the times of ``run``."""
+    t = run.history["t"]
+    keep = t <= (t_end if t_end is not None else np.inf)
+    out = {}
+    for k in range(1, 5):
+        if f"wheel{k}_wheel_uz" not in run.history:
+            continue
+        pair = []
+        for side in ("wheel", "rail"):
+            col = f"wheel{k}_{side}_uz"
+            u = run.history[col][keep]
+            u_ref = np.interp(t[keep], ref.history["t"], ref.history[col])
+            pair.append(_rel_l2(u - u[0], u_ref - u_ref[0]))
+        out[k] = (pair[0], pair[1])
+    return out
+
+
+def first_landing(run: Run, lift_gap: float = LIFT_GAP) -> float | None:
+    """The time the last wheel comes down from its first lift-off (None without one)."""
+    ends = [
+        ep[0][1]
+        for k in range(1, 5)
+        if f"gap_wheel_{k}" in run.history
+        and (ep := lift_off_episodes(run.history["t"], run.history[f"gap_wheel_{k}"], lift_gap))
+    ]
+    return max(ends) if ends else None
+
+
 def compare_runs(het: Run, exp: Run, lift_gap: float = LIFT_GAP) -> dict[str, Any]:
     """The comparison numbers (see the module docstring) of a coupled and an explicit run."""
     t = het.history["t"]
     te = exp.history["t"]
+    t_land = first_landing(exp, lift_gap)
+    to_landing = pair_l2(het, exp, t_land) if t_land is not None else {}
+    out_land: dict[str, Any] = {"first_landing_s": t_land}
     dT = float(het.summary.get("dT", t[1] - t[0] if t.size > 1 else 1.0))  # type: ignore[arg-type]
     out: dict[str, Any] = {"wheels": {}}
     worst = 0.0
-    for k in range(1, 5):
-        if f"wheel{k}_wheel_uz" not in het.history:
-            continue
+    for k, dynamic in pair_l2(het, exp).items():
         w: dict[str, Any] = {}
-        for side in ("wheel", "rail"):
+        for side, l2 in zip(("wheel", "rail"), dynamic, strict=True):
             col = f"wheel{k}_{side}_uz"
-            uh = het.history[col]
-            ue = np.interp(t, te, exp.history[col])
-            w[f"{side}_uz_l2_dynamic"] = _rel_l2(uh - uh[0], ue - ue[0])
-            w[f"{side}_uz_l2_total"] = _rel_l2(uh, ue)
-            worst = max(worst, w[f"{side}_uz_l2_dynamic"])
+            w[f"{side}_uz_l2_dynamic"] = l2
+            w[f"{side}_uz_l2_total"] = _rel_l2(het.history[col], np.interp(t, te, exp.history[col]))
+            worst = max(worst, l2)
         eh = lift_off_episodes(t, het.history[f"gap_wheel_{k}"], lift_gap)
         ee = lift_off_episodes(te, exp.history[f"gap_wheel_{k}"], lift_gap)
         w["lift_offs_heterogeneous"] = eh
@@ -88,8 +125,11 @@ def compare_runs(het: Run, exp: Run, lift_gap: float = LIFT_GAP) -> dict[str, An
             w["onset_shift_macro_steps"] = (
                 max(abs(a[0] - b[0]) for a, b in zip(eh, ee, strict=True)) / dT
             )
+        if k in to_landing:
+            w["wheel_uz_l2_to_first_landing"], w["rail_uz_l2_to_first_landing"] = to_landing[k]
         out["wheels"][k] = w
     out["worst_pair_uz_l2_dynamic"] = worst
+    out.update(out_land)
     ext = float(np.max(np.abs(het.history["external_work"])))
     ifd = het.history.get("interface_dissipated", np.zeros(1))
     out["external_work_max_abs_J"] = ext
@@ -131,6 +171,15 @@ def describe(result: dict[str, Any]) -> list[str]:
             f"{100 * w['rail_uz_l2_dynamic']:.2f} %; lift-offs {len(w['lift_offs_heterogeneous'])} "
             f"(heterogeneous) / {len(w['lift_offs_explicit'])} (explicit)"
             + (f", onsets within {shift:.1f} macro steps" if shift is not None else "")
+        )
+    if result.get("first_landing_s") is not None:
+        worst = max(
+            max(w["wheel_uz_l2_to_first_landing"], w["rail_uz_l2_to_first_landing"])
+            for w in result["wheels"].values()
+        )
+        lines.append(
+            f"up to the first landing (t = {result['first_landing_s']:.4g} s): worst L2(u_z − "
+            f"u_z0) {100 * worst:.2f} %"
         )
     lines.append(
         f"interface dissipated: max |E_Γ| = {result['interface_dissipated_max_abs_J']:.3e} J = "

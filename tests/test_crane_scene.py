@@ -14,10 +14,10 @@ import pyvista as pv
 from conftest import COMM
 
 from crane_fem.cli import main
-from crane_fem.compare import compare_runs, lift_off_episodes
+from crane_fem.compare import compare_runs, first_landing, lift_off_episodes, pair_l2
 from crane_fem.coupling.gravouil_combescure import ENERGY_KEYS
 from crane_fem.io import read_history, read_xdmf
-from crane_fem.plotting import load_runs
+from crane_fem.plotting import Run, load_runs
 
 DEMOS = Path(__file__).parent.parent / "demos"
 QUICK = DEMOS / "crane_quick.toml"
@@ -99,6 +99,28 @@ def test_quick_scene_lift_off_and_reimpact(quick_runs) -> None:
         assert w["onset_shift_macro_steps"] <= 3.0
     # Heterogeneous vs explicit pair displacement u_z − u_z(0): the issue's bound, 5 %.
     assert cmp["worst_pair_uz_l2_dynamic"] <= 0.05
+    assert cmp["first_landing_s"] is not None
+
+
+def test_pair_l2_window_ends_at_the_first_landing() -> None:
+    """Synthetic histories, identical up to t = 0.7 and different after: each wheel flies over
+    [0.2, 0.4 + 0.05 k]; the first landing is the last wheel down (0.6), the L2 difference up
+    to it is exactly zero and that of the whole run is not."""
+    t = np.linspace(0.0, 1.0, 1001)
+    a: dict[str, np.ndarray] = {"t": t}
+    for k in range(1, 5):
+        flight = (t > 0.2) & (t < 0.4 + 0.05 * k)
+        a[f"gap_wheel_{k}"] = np.where(flight, 1e-3, 0.0)
+        a[f"wheel{k}_wheel_uz"] = np.sin(3 * t) + a[f"gap_wheel_{k}"]
+        a[f"wheel{k}_rail_uz"] = np.cos(5 * t)
+    b = {c: v + np.where(t > 0.7, 0.1, 0.0) if c.endswith("_uz") else v for c, v in a.items()}
+    run_a, run_b = Run(Path("a"), a, {}), Run(Path("b"), b, {})
+    assert first_landing(run_b) == pytest.approx(0.6, abs=1e-3)
+    to_landing = pair_l2(run_a, run_b, first_landing(run_b))
+    whole = pair_l2(run_a, run_b)
+    for k in range(1, 5):
+        assert to_landing[k] == (0.0, 0.0)
+        assert min(whole[k]) > 0.01
 
 
 @pytest.mark.serial
