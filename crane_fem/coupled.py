@@ -286,7 +286,7 @@ class CoupledSimulation:
             self.E_int,
             self.I_int,
             ratio if coupled else 1,
-            "ph" if method == "ph" else "gc",
+            method if method in ("ph", "ec") else "gc",
             li if coupled else None,
             dt=self.dt,
         )

@@ -324,7 +324,7 @@ class Coupling(_Section):
     """How subdomains are integrated: GC or PH coupling with ΔT = ratio × Δt, or the whole
     mesh as one subdomain with ``scheme`` (the monolithic reference)."""
 
-    method: Literal["gc", "ph", "monolithic"] = "gc"
+    method: Literal["gc", "ph", "ec", "monolithic"] = "gc"
     ratio: PositiveInt = 1
     scheme: Literal["cd-lagrange", "newmark"] | None = None
 
@@ -412,6 +412,19 @@ class Scenario(_Section):
             return self
         if cpl is not None and cpl.scheme is not None:
             raise ValueError("coupling.scheme applies to method 'monolithic' only")
+        if (
+            cpl is not None
+            and cpl.method == "ec"
+            and (
+                self.newmark.beta,
+                self.newmark.gamma,
+            )
+            != (0.25, 0.5)
+        ):
+            raise ValueError(
+                "coupling.method 'ec' needs the average-acceleration Newmark "
+                "(newmark.beta = 0.25, newmark.gamma = 0.5)"
+            )
         if not self.subdomain:
             if cpl is not None:
                 raise ValueError(f"coupling method {cpl.method!r} needs [[subdomain]] entries")

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
+import scipy.linalg
 
 from crane_fem.contact import ContactSet, solve_mixed_lcp, solve_mixed_lcp_blocks
 from crane_fem.energy import BALANCE_TERMS
@@ -158,6 +159,19 @@ class MacroRecord:
     impulse_defect: float = 0.0
 
 
+#: "ec": the constraint residual accepted after a pass, relative to the interface increments,
+#: and the passes allowed per macro step (a contact changing state between passes makes the
+#: explicit side nonlinear; the leftover residual's work is booked as interface energy).
+EC_TOL = 1e-9
+EC_MAX_PASSES = 6
+#: Energy terms an explicit pass sums over its micro steps.
+LINK_TERMS = ("external_work", "damping_dissipated", "contact_work", "link_work")
+
+
+def _amax(x: FloatArray) -> float:
+    return float(np.max(np.abs(x), initial=0.0))
+
+
 ENERGY_KEYS = [
     *BALANCE_TERMS,
     "interface_dissipated",
@@ -175,7 +189,9 @@ class CoupledIntegrator:
         implicit: the Newmark subdomain integrator, or None.
         ratio: m (ΔT = m Δt); 1 when one side is missing.
         method: "gc" (THEORY.md §3: j/m-weighted interface operators H_j; weakly unstable
-            over long undamped runs, docs/theory-notes.md §6) or "ph".
+            over long undamped runs, docs/theory-notes.md §6), "ph", or "ec" (multipliers
+            constant over the macro step, interface displacement increments continuous: no
+            interface energy, docs/theory-notes.md §7; average-acceleration Newmark only).
         l_implicit: the implicit side's interface rows (L_I).
     """
 
@@ -209,6 +225,13 @@ class CoupledIntegrator:
         self.impulse_I = np.zeros(self.n_gamma)
         self.n = 0
         self._Z: FloatArray | None = None
+        # "ec": link force of the previous macro step (the predictor), the Cholesky factor
+        # of Z_E + ½ΔT² W_I, explicit passes per macro step and the worst relative residual.
+        self.G_prev = np.zeros(self.n_gamma)
+        self._ec_lu: tuple[FloatArray, bool] | None = None
+        self.ec_max_passes = EC_MAX_PASSES
+        self.ec_passes: list[int] = []
+        self.ec_residual = 0.0
         self._setup_interface_solver()
 
     def _setup_interface_solver(self) -> None:
@@ -305,6 +328,7 @@ class CoupledIntegrator:
             self.w_prev = E.stack.apply(E.v0)[: self.n_gamma]
             self.lam_prev = E.dt * lam0
             self.lam_macro_prev = lam0.copy()
+            self.G_prev = lam0.copy()
         # The first impulses act over Δt/2: as forces, 2 Λ̂ / Δt.
         return self._record(2.0 * lam, gaps, [])
 
@@ -401,6 +425,8 @@ class CoupledIntegrator:
 
     def step(self) -> MacroRecord:
         """One macro step (m micro steps when coupled) (collective)."""
+        if self.coupled and self.method == "ec":
+            return self._step_ec()
         E, I, m = self.E, self.I, self.m  # noqa: E741
         t0 = self.n * self.dT
         t1 = t0 + self.dT
@@ -497,6 +523,134 @@ class CoupledIntegrator:
             self.acc["interface_work_physical"] -= phys_e_g + phys_i
         self.n += 1
         return self._record(lam, gaps, micro)
+
+    # ------------------------------------------------------------------------------------
+    # "ec": multipliers constant over the macro step, continuity of the interface
+    # displacement increment (docs/theory-notes.md §7). The interface work of the step is
+    # Gᵀ(L_E D_E + L_I ΔU_I), zero when the constraint holds: no interface energy for any m.
+    def _ec_pass(
+        self, t0: float, G: FloatArray
+    ) -> tuple[FloatArray, FloatArray, dict[str, float], list[tuple[float, bool]], FloatArray]:
+        """The m micro steps under the constant link force G; returns the last impulses and
+        gaps, the summed local energy terms, the micro-step contact flags and L_E D_E with
+        D_E = ½(U_m + U_m+1) − ½(U_0 + U_1) = Σ_j Δt V_j."""
+        E = self.E
+        assert E is not None
+        n_g = self.n_gamma
+        lin = E.stack
+        d0 = lin.apply(E.u + 0.5 * E.dt * E.vh)[:n_g]
+        sums = dict.fromkeys(LINK_TERMS, 0.0)
+        micro: list[tuple[float, bool]] = []
+        lam = gaps = np.zeros(0)
+        for j in range(1, self.m + 1):
+            tj = t0 + j * E.dt
+            lam_before = self.lam_prev.copy()
+            lam, gaps, terms, _ = self._micro(j, tj, G, G, E.dt * G)
+            self.impulse_E += 0.5 * (lam_before + lam[:n_g])
+            for k in sums:
+                sums[k] += terms[k]
+            micro.append((tj, bool(np.any(lam[n_g:] > 0.0))))
+        d1 = lin.apply(E.u + 0.5 * E.dt * E.vh)[:n_g]
+        return lam, gaps, sums, micro, d1 - d0
+
+    def _ec_response(self) -> FloatArray:
+        """Z[:, k] = L_E D_E for the constant unit link force e_k over one macro step from
+        rest, no load, no contact (the explicit side's linear interface compliance)."""
+        E = self.E
+        assert E is not None
+        n_g, m = self.n_gamma, self.m
+        zero = np.zeros_like(E.u)
+        probe = ExplicitCD(
+            E.model,
+            lambda t: zero,
+            E.dt,
+            zero,
+            zero,
+            _rows(E.stack, n_g),
+            ContactSet.empty(E.model.comm),
+        )
+        Z = np.zeros((n_g, n_g))
+        try:
+            for k in range(n_g):
+                probe.u[:] = 0.0
+                probe.vh = np.zeros_like(zero)
+                lam = np.zeros(n_g)
+                lam[k] = E.dt
+                for _ in range(m):
+                    fr = probe.free(0.0, E.dt, move=True)
+                    probe.finish(fr, lam, E.dt)
+                Z[:, k] = probe.stack.apply(probe.u + 0.5 * E.dt * probe.vh)
+        finally:
+            probe.destroy()
+        return 0.5 * (Z + Z.T)
+
+    def _step_ec(self) -> MacroRecord:
+        """One macro step of the "ec" coupling (collective): implicit free trapezoidal
+        increment, explicit passes under a constant link force G corrected until the
+        interface displacement increments agree (one correction when no contact changes
+        state between passes), then the implicit link increment ½ΔT² M̃⁻¹ L_Iᵀ G."""
+        E, I = self.E, self.I  # noqa: E741
+        assert E is not None and I is not None and self.LI is not None
+        n_g, dT = self.n_gamma, self.dT
+        t0, t1 = self.n * dT, (self.n + 1) * dT
+        if self._ec_lu is None:
+            self._ec_lu = scipy.linalg.cho_factor(self._ec_response() + 0.5 * dT * dT * I.W)
+        uI0, vI0 = I.u.copy(), I.v.copy()
+        f0, f1 = I.load(t0), I.load(t1)
+        du_free = I.trapezoid_free_increment(f0, f1)
+        r_I = self.LI.apply(du_free)[:n_g]
+        state = E.save()
+        saved = (self.lam_prev.copy(), self.w_prev.copy(), self.impulse_E.copy())
+        G = self.G_prev.copy()
+        for k in range(self.ec_max_passes):
+            if k:
+                E.restore(state)
+                self.lam_prev, self.w_prev = saved[0].copy(), saved[1].copy()
+                self.impulse_E = saved[2].copy()
+            lam, gaps, sums, micro, ld = self._ec_pass(t0, G)
+            r = ld + r_I + 0.5 * dT * dT * (I.W @ G)
+            scale = max(_amax(ld), _amax(r_I), 1e-300)
+            if _amax(r) <= EC_TOL * scale or k == self.ec_max_passes - 1:
+                break
+            G = G - scipy.linalg.cho_solve(self._ec_lu, r)
+        self.ec_passes.append(k + 1)
+        self.ec_residual = max(self.ec_residual, _amax(r) / scale)
+        # Implicit side: ΔU = ΔU_free + ½ΔT² M̃⁻¹ L_Iᵀ G, V_n+1 = 2ΔU/ΔT − V_n.
+        du = du_free + 0.5 * dT * dT * (G @ I.X)
+        I.accept(uI0 + du, 2.0 * du / dT - vI0, I.a)
+        self.impulse_I += dT * G
+        fl = self.LI.transpose(G, I.model.n_owned)
+        cv0, cv1 = I.damping_action(vI0), I.damping_action(I.v)
+        kin_old, pot_old = self._i_kin, self._i_int
+        vbar = du / dT
+        red = self._sum(
+            [sums[k] for k in LINK_TERMS]
+            + [*E_energy(E)]
+            + [
+                dT * float(np.dot(vbar, 0.5 * (f0 + f1))),
+                dT * float(np.dot(vbar, 0.5 * (cv0 + cv1))),
+                float(np.dot(du, fl)),
+                0.5 * float(np.dot(I.v, I.mass_action(I.v))),
+                0.5 * float(np.dot(I.u, I.stiffness_action(I.u))),
+            ]
+        )
+        self.acc["external_work"] += red[0] + red[6]
+        self.acc["damping_dissipated"] += red[1] + red[7]
+        self.acc["contact_dissipated"] -= red[2]
+        self._e_kin, self._e_int = float(red[4]), float(red[5])
+        self._i_kin, self._i_int = float(red[9]), float(red[10])
+        d_energy = (self._i_kin + self._i_int) - (kin_old + pot_old)
+        self.acc["numerical_dissipated"] += (red[6] - red[7] + red[8]) - d_energy
+        link = red[3] + red[8]  # work of G on both sides: Gᵀ r
+        self.acc["interface_dissipated"] -= link
+        self.acc["interface_energy_gc"] -= link
+        self.acc["interface_work_physical"] -= link
+        self.G_prev = G
+        self.lam_macro_prev = G.copy()
+        self.n += 1
+        rec = self._record(lam, gaps, micro)
+        rec.interface_impulse = G.copy()
+        return rec
 
     def _ph_solve(self, t0: float, wIf: FloatArray) -> FloatArray:
         """Prakash–Hjelmstad: Λ_m from continuity at the macro step only (explicit linear)."""

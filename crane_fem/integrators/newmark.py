@@ -183,6 +183,21 @@ class Newmark:
         a = self.solve(rhs)
         return ut + b * dT * dT * a, vt + g * dT * a, a
 
+    def trapezoid_free_increment(self, f0: FloatArray, f1: FloatArray) -> FloatArray:
+        """ΔU over one step of the trapezoidal rule (β = ¼, γ = ½) without link force, in
+        its displacement–velocity form (no acceleration, so a link force may jump at t_n):
+
+            M̃ ΔU = ΔT M V_n + ¼ΔT² (F_n + F_n+1) − ½ΔT² K U_n,   V_n+1 = 2ΔU/ΔT − V_n.
+
+        A constant link force G over the step adds ½ΔT² M̃⁻¹ Lᵀ G (collective)."""
+        if (self.beta, self.gamma) != (0.25, 0.5):
+            raise ValueError("the trapezoidal increment needs beta = 1/4, gamma = 1/2")
+        dT = self.dT
+        rhs = dT * self.mass_action(self.v) + 0.25 * dT * dT * (f0 + f1)
+        rhs -= 0.5 * dT * dT * self.stiffness_action(self.u)
+        rhs[self._fixed] = 0.0
+        return self.solve(rhs)
+
     def accept(self, u: FloatArray, v: FloatArray, a: FloatArray) -> None:
         self.u, self.v, self.a = u, v, a
 
