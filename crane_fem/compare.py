@@ -151,7 +151,7 @@ def write_comparison(outdir: Path) -> tuple[Path, dict[str, Any]] | None:
     """Compare the coupled and the monolithic run found under ``outdir``; write
     ``comparison.json`` there. None unless there is one run of each."""
     runs = load_runs(outdir)
-    het = [r for r in runs if r.summary.get("method") in ("gc", "ph")]
+    het = [r for r in runs if r.summary.get("method") in ("gc", "ph", "ec")]
     exp = [r for r in runs if r.summary.get("method") == "monolithic"]
     if len(het) != 1 or len(exp) != 1:
         return None

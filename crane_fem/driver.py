@@ -517,6 +517,10 @@ def run_coupled(
         summary["interface_energy_gc_min_step"] = (
             ifd_min_step if math.isfinite(ifd_min_step) else 0.0
         )
+        if integ.ec_passes:  # "ec": explicit passes per macro step, worst residual
+            summary["ec_passes_mean"] = float(np.mean(integ.ec_passes))
+            summary["ec_passes_max"] = int(np.max(integ.ec_passes))
+            summary["ec_residual_max"] = integ.ec_residual
         times = [t for t, _ in micro]
         active = [a for _, a in micro]
         _finish_summary(summary, out, comm, t_wall, times, active, max_drift, scale)

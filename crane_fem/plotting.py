@@ -46,7 +46,7 @@ class Run:
         s = self.summary
         if s.get("method") == "monolithic":
             return "fully explicit" if s.get("explicit_subdomains") else "fully implicit"
-        if s.get("method") in ("gc", "ph"):
+        if s.get("method") in ("gc", "ph", "ec"):
             return f"heterogeneous ({str(s['method']).upper()}, m = {s.get('ratio')})"
         return self.path.name
 

@@ -242,6 +242,17 @@ def test_missing_mesh_and_record_window_errors(tmp_path, capsys) -> None:
         assert "no history.csv" in capsys.readouterr().err
 
 
+def test_ec_coupling_refused_where_contacts_change_near_the_interface(shared_tmp, capsys):
+    """The crane's wheel/rail pairs open and close within macro steps, next to the
+    interface: the explicit passes of "ec" are then a nonsmooth fixed point that does not
+    converge, and the run stops with one line naming the method, the time and the residual
+    (exit 1), as "ph" refuses an active contact."""
+    out = shared_tmp / "ec"
+    assert main(["run", str(QUICK), "-o", str(out), "--set", "coupling.method='ec'"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "coupling method 'ec'" in err and "use" in err, err
+
+
 PV_SCRIPT = """
 import json, sys
 from paraview.simple import Xdmf3ReaderT

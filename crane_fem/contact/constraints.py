@@ -45,6 +45,21 @@ class ContactSet:
     def __post_init__(self) -> None:
         self._buf = np.zeros(2 * self.p)
 
+    def subset(self, keep: npt.NDArray[np.bool_]) -> ContactSet:
+        """The points where ``keep`` (p,) is True, renumbered in order (not collective)."""
+        new_index = np.cumsum(keep) - 1
+        terms = keep[self.rows]
+        return ContactSet(
+            self.comm,
+            self.g0[keep],
+            new_index[self.rows[terms]],
+            self.dofs[terms],
+            self.coeffs[terms],
+            self.group[keep],
+            self.group_names,
+            self.tol,
+        )
+
     def closed(self, gaps: FloatArray) -> npt.NDArray[np.bool_]:
         """Points whose gap is closed: ``g ≤ tol`` (``tol`` absorbs the round-off of a gap
         held at zero by a persistent contact, which would otherwise open it for a step)."""
