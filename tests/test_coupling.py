@@ -226,17 +226,8 @@ def test_ec_long_undamped_run_keeps_its_energy(shared_tmp) -> None:
     kinetic + internal energy at E0 to round-off (no interface energy, CD and the
     trapezoidal rule conserve their own energies)."""
     sc = load_scenario(
-        Path(__file__).parent.parent / "demos" / "split_bar.toml",
-        [
-            "time.end=200.0",
-            "output.xdmf=false",
-            "contact=[]",
-            "initial.velocity=0.0",
-            "initial.pulse={center=0.7, width=0.1, amplitude=0.01}",
-            "output.every=10",
-            'model.clamp="right"',
-            "coupling.method='ec'",
-        ],
+        Path(__file__).parent.parent / "demos" / "split_bar_undamped.toml",
+        ["coupling.method='ec'"],
     )
     res = run(sc, shared_tmp)
     h = res.history
