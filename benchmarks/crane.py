@@ -63,7 +63,7 @@ def main() -> int:
     t_land = cmp.get("first_landing_s")
     cols = ["wheel", "L2(u_z − u_z0) wheel / rail side", "same, up to the first landing"]
     cols += ["explicit, record +0.5 %", "lift-offs het. / expl.", "onset shift (macro steps)"]
-    print(f"First landing (explicit run): t = {t_land} s.\n")
+    print(f"First landing (explicit run): t = {t_land:.4g} s.\n")
     print("| " + " | ".join(cols) + " |")
     print("|---|---|---|---|---|---|")
 
