@@ -435,9 +435,7 @@ class CoupledIntegrator:
         t1 = t0 + self.dT
         n_g = self.n_gamma
         micro: list[tuple[float, bool]] = []
-        e_local = {
-            k: 0.0 for k in ("external_work", "damping_dissipated", "contact_work", "link_work")
-        }
+        e_local = dict.fromkeys(LINK_TERMS, 0.0)
         gc_e = phys_e = 0.0
         lam = np.zeros(0)
         gaps = np.zeros(0)
