@@ -167,6 +167,8 @@ class MacroRecord:
 #: the run then stops with an error (as "ph" does).
 EC_TOL = 1e-7
 EC_MAX_PASSES = 8
+#: Factored interface operators kept, one per set of closed contacts met.
+EC_CACHE = 16
 #: Energy terms an explicit pass sums over its micro steps.
 LINK_TERMS = ("external_work", "damping_dissipated", "contact_work", "link_work")
 
@@ -591,6 +593,8 @@ class CoupledIntegrator:
         assert self.I is not None
         key = closed.tobytes()
         if key not in self._ec_lu:
+            if len(self._ec_lu) >= EC_CACHE:  # drop the oldest contact set
+                del self._ec_lu[next(iter(self._ec_lu))]
             J = self._ec_response(closed) + 0.5 * self.dT * self.dT * self.I.W
             self._ec_lu[key] = scipy.linalg.cho_factor(J)
         return self._ec_lu[key]
