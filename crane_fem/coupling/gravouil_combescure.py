@@ -150,12 +150,12 @@ class MacroRecord:
     gaps: FloatArray
     interface_impulse: FloatArray
     micro: list[tuple[float, bool]] = field(default_factory=list)
-    #: ‖Σ ½Δt (Λ_j−1 + Λ_j)‖ (N·s): the interface impulse the explicit side received since
-    #: t = 0.
+    #: ‖S_E‖ (N·s): the interface impulse the explicit side received since t = 0 (gc/ph:
+    #: S_E = Σ ½Δt (Λ_j−1 + Λ_j), trapezoid like the implicit side's; ec: Σ Δt G).
     impulse_explicit: float = 0.0
-    #: ‖Σ ½Δt (Λ_j−1 + Λ_j) − Σ ½ΔT (Λ_n + Λ_n+1)‖ (N·s): impulse the explicit side
-    #: received that the implicit side (paid with the macro-step multipliers) did not; zero
-    #: for m = 1.
+    #: ‖S_E − S_I‖ (N·s), S_I the implicit side's (gc/ph: Σ ½ΔT (Λ_n + Λ_n+1), paid with the
+    #: macro-step multipliers only; ec: Σ ΔT G): momentum one side received and the other
+    #: did not. Zero for m = 1, and for ec.
     impulse_defect: float = 0.0
 
 
@@ -230,8 +230,9 @@ class CoupledIntegrator:
         self.impulse_I = np.zeros(self.n_gamma)
         self.n = 0
         self._Z: FloatArray | None = None
-        # "ec": link force of the previous macro step (the predictor), the Cholesky factor
-        # of Z_E + ½ΔT² W_I, explicit passes per macro step and the worst relative residual.
+        # "ec": link force of the previous macro step (the predictor), the Cholesky factors
+        # of Z_E + ½ΔT² W_I per set of closed contacts, explicit passes per macro step and the
+        # worst relative residual.
         self.G_prev = np.zeros(self.n_gamma)
         self._ec_lu: dict[bytes, tuple[FloatArray, bool]] = {}
         self.ec_max_passes = EC_MAX_PASSES
@@ -557,15 +558,20 @@ class CoupledIntegrator:
         d1 = lin.apply(E.u + 0.5 * E.dt * E.vh)[:n_g]
         return lam, gaps, sums, micro, d1 - d0
 
-    def _ec_response(self, closed: npt.NDArray[np.bool_]) -> FloatArray:
-        """Z[:, k] = L_E D_E for the constant unit link force e_k over one macro step from
-        rest, no load (the explicit side's linear interface compliance), the ``closed``
-        contact points held as bilateral constraints, the others open."""
+    def _interface_response(
+        self, closed: npt.NDArray[np.bool_] | None = None, ramp: bool = False
+    ) -> FloatArray:
+        """The explicit side's linear interface response over one macro step from rest, no
+        load, column k for the unit link force e_k: constant (``ramp`` False, "ec") with
+        Z[:, k] = L_E D_E, or the ramp (j/m) e_k ("ph") with Z[:, k] = L_E V_E,m. The
+        ``closed`` contact points are held as bilateral constraints, the others open (n_Γ
+        linear runs of m micro steps; collective)."""
         E = self.E
         assert E is not None
         n_g, m = self.n_gamma, self.m
         zero = np.zeros_like(E.u)
-        contacts = E.contacts.subset(closed)
+        keep = closed if closed is not None else np.zeros(E.contacts.p, dtype=bool)
+        contacts = E.contacts.subset(keep)
         probe = ExplicitCD(E.model, lambda t: zero, E.dt, zero, zero, _rows(E.stack, n_g), contacts)
         p_c = probe.stack.p - n_g
         w_cc = scipy.linalg.cho_factor(probe.W[n_g:, n_g:]) if p_c else None
@@ -575,18 +581,19 @@ class CoupledIntegrator:
                 probe.u[:] = 0.0
                 probe.vh = np.zeros_like(zero)
                 lam = np.zeros(probe.stack.p)
-                for _ in range(m):
+                for j in range(1, m + 1):
                     fr = probe.free(0.0, E.dt, move=True)
                     lam[:] = 0.0
-                    lam[k] = E.dt
+                    lam[k] = E.dt * (j / m if ramp else 1.0)
                     if w_cc is not None:
-                        q_c = fr["q"][n_g:] + probe.W[n_g:, k] * E.dt
+                        q_c = fr["q"][n_g:] + probe.W[n_g:, k] * lam[k]
                         lam[n_g:] = -scipy.linalg.cho_solve(w_cc, q_c)
                     probe.finish(fr, lam, E.dt)
-                Z[:, k] = probe.stack.apply(probe.u + 0.5 * E.dt * probe.vh)[:n_g]
+                end = probe.v_int if ramp else probe.u + 0.5 * E.dt * probe.vh
+                Z[:, k] = probe.stack.apply(end)[:n_g]
         finally:
             probe.destroy()
-        return 0.5 * (Z + Z.T)
+        return Z if ramp else 0.5 * (Z + Z.T)
 
     def _ec_factor(self, closed: npt.NDArray[np.bool_]) -> tuple[FloatArray, bool]:
         """Cholesky factor of Z_E + ½ΔT² W_I for the set of closed contacts (cached)."""
@@ -595,7 +602,7 @@ class CoupledIntegrator:
         if key not in self._ec_lu:
             if len(self._ec_lu) >= EC_CACHE:  # drop the oldest contact set
                 del self._ec_lu[next(iter(self._ec_lu))]
-            J = self._ec_response(closed) + 0.5 * self.dT * self.dT * self.I.W
+            J = self._interface_response(closed) + 0.5 * self.dT * self.dT * self.I.W
             self._ec_lu[key] = scipy.linalg.cho_factor(J)
         return self._ec_lu[key]
 
@@ -682,7 +689,7 @@ class CoupledIntegrator:
         assert E is not None and I is not None
         n_g, m = self.n_gamma, self.m
         if self._Z is None:
-            self._Z = self._ph_response()
+            self._Z = self._interface_response(ramp=True)
         state = E.save()
         lam_prev_saved, w_prev_saved = self.lam_prev.copy(), self.w_prev.copy()
         w = np.zeros(n_g)
@@ -699,36 +706,6 @@ class CoupledIntegrator:
         self.lam_prev, self.w_prev = lam_prev_saved, w_prev_saved
         H = self._Z + I.gamma * self.dT * I.W
         return np.linalg.solve(H, -(w + wIf))
-
-    def _ph_response(self) -> FloatArray:
-        """Z[:, k] = L_E V_E,m for the unit ramp force (j/m) e_k from rest, no load (linear)."""
-        E = self.E
-        assert E is not None
-        n_g, m = self.n_gamma, self.m
-        zero = np.zeros_like(E.u)
-        probe = ExplicitCD(
-            E.model,
-            lambda t: zero,
-            E.dt,
-            zero,
-            zero,
-            _rows(E.stack, n_g),
-            ContactSet.empty(E.model.comm),
-        )
-        Z = np.zeros((n_g, n_g))
-        try:
-            for k in range(n_g):
-                probe.u[:] = 0.0
-                probe.vh = np.zeros_like(zero)
-                for j in range(1, m + 1):
-                    fr = probe.free(0.0, E.dt, move=True)
-                    lam = np.zeros(n_g)
-                    lam[k] = E.dt * j / m
-                    probe.finish(fr, lam, E.dt)
-                Z[:, k] = probe.stack.apply(probe.v_int)
-        finally:
-            probe.destroy()
-        return Z
 
     def destroy(self) -> None:
         if self.E is not None:
