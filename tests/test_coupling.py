@@ -283,6 +283,10 @@ BAD = [
         },
         "groups ['right'] belong to no subdomain",
     ),
+    (
+        {"coupling": {"method": "ec", "ratio": 2}, "newmark": {"beta": 0.3, "gamma": 0.5}},
+        "coupling.method 'ec' needs the average-acceleration Newmark",
+    ),
 ]
 
 
