@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from crane_fem.energy import BALANCE_TERMS
 from crane_fem.io.history import read_history
 
 __all__ = ["Run", "load_runs", "plot_outputs", "render_peak"]
@@ -122,15 +123,7 @@ def _pair_figure(runs: list[Run], quantity: str, unit: str, scale: float, path: 
 def _energy_figure(runs: list[Run], path: Path) -> Path:
     import matplotlib.pyplot as plt
 
-    terms = [
-        "kinetic",
-        "internal",
-        "external_work",
-        "damping_dissipated",
-        "contact_dissipated",
-        "numerical_dissipated",
-        "interface_dissipated",
-    ]
+    terms = [*BALANCE_TERMS, "interface_dissipated"]
     fig, axes = plt.subplots(1, len(runs), figsize=(5.5 * len(runs), 3.8), squeeze=False)
     for j, run in enumerate(runs):
         ax = axes[0, j]
