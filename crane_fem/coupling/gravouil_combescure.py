@@ -230,10 +230,9 @@ class CoupledIntegrator:
         self.impulse_I = np.zeros(self.n_gamma)
         self.n = 0
         self._Z: FloatArray | None = None
-        # "ec": link force of the previous macro step (the predictor), the Cholesky factors
-        # of Z_E + ½ΔT² W_I per set of closed contacts, explicit passes per macro step and the
-        # worst relative residual.
-        self.G_prev = np.zeros(self.n_gamma)
+        # "ec": the Cholesky factors of Z_E + ½ΔT² W_I per set of closed contacts, explicit
+        # passes per macro step and the worst relative residual (its predictor for G is
+        # ``lam_macro_prev``, the previous macro step's link force).
         self._ec_lu: dict[bytes, tuple[FloatArray, bool]] = {}
         self.ec_max_passes = EC_MAX_PASSES
         self.ec_passes: list[int] = []
@@ -334,7 +333,6 @@ class CoupledIntegrator:
             self.w_prev = E.stack.apply(E.v0)[: self.n_gamma]
             self.lam_prev = E.dt * lam0
             self.lam_macro_prev = lam0.copy()
-            self.G_prev = lam0.copy()
         # The first impulses act over Δt/2: as forces, 2 Λ̂ / Δt.
         return self._record(2.0 * lam, gaps, [])
 
@@ -374,6 +372,61 @@ class CoupledIntegrator:
         )
 
     # ------------------------------------------------------------------------------------
+    def _explicit_balance(self, sums: dict[str, float]) -> float:
+        """Book the explicit side's summed micro-step terms (local, reduced here) and its
+        energies after the macro step; return the global link work on it (collective)."""
+        assert self.E is not None
+        red = self._sum([sums[k] for k in LINK_TERMS] + E_energy(self.E))
+        self.acc["external_work"] += red[0]
+        self.acc["damping_dissipated"] += red[1]
+        self.acc["contact_dissipated"] -= red[2]
+        self._e_kin, self._e_int = float(red[4]), float(red[5])
+        return float(red[3])
+
+    def _implicit_balance(
+        self,
+        uI0: FloatArray,
+        vI0: FloatArray,
+        f0: FloatArray,
+        f1: FloatArray,
+        cv0: FloatArray,
+        force: FloatArray | None,
+    ) -> tuple[float, float]:
+        """Book the implicit step from (U_0, V_0) to the current state: work of the load and
+        of damping with the mean velocity V̄ = ½(V_0 + V_1), energies, and the algorithmic
+        energy of Newmark; return the link work ΔT V̄ᵀL_IᵀΛ̄ and its displacement form
+        ΔUᵀL_IᵀΛ̄ for the mean link force ``force`` (None: uncoupled) (collective)."""
+        I = self.I  # noqa: E741
+        assert I is not None
+        vbar = 0.5 * (vI0 + I.v)
+        cv1 = I.damping_action(I.v)
+        link = phys = 0.0
+        if force is not None:
+            assert self.LI is not None
+            fl = self.LI.transpose(force, I.model.n_owned)
+            link = self.dT * float(np.dot(vbar, fl))
+            phys = float(np.dot(I.u - uI0, fl))
+        kin_old, pot_old = self._i_kin, self._i_int
+        red = self._sum(
+            [
+                self.dT * float(np.dot(vbar, 0.5 * (f0 + f1))),
+                self.dT * float(np.dot(vbar, 0.5 * (cv0 + cv1))),
+                link,
+                phys,
+                0.5 * float(np.dot(I.v, I.mass_action(I.v))),
+                0.5 * float(np.dot(I.u, I.stiffness_action(I.u))),
+            ]
+        )
+        w_ext, w_damp, link_i, phys_i = (float(x) for x in red[:4])
+        self._i_kin, self._i_int = float(red[4]), float(red[5])
+        self.acc["external_work"] += w_ext
+        self.acc["damping_dissipated"] += w_damp
+        # Algorithmic energy of Newmark in the measure ½VᵀMV + ½UᵀKU (zero for β = ¼, γ = ½
+        # without damping): work of all forces in velocity form minus the energy change.
+        d_energy = (self._i_kin + self._i_int) - (kin_old + pot_old)
+        self.acc["numerical_dissipated"] += (w_ext - w_damp + link_i) - d_energy
+        return link_i, phys_i
+
     def _micro(
         self, j: int, t: float, wI0: FloatArray, wIf: FloatArray, imposed: FloatArray | None
     ) -> tuple[FloatArray, FloatArray, dict[str, float], FloatArray]:
@@ -478,48 +531,15 @@ class CoupledIntegrator:
                         "use coupling.method = 'gc'"
                     )
             # gc_e and phys_e are already global (dot products of reduced interface vectors).
-            red = self._sum([e_local[k] for k in e_local] + [*E_energy(E)])
-            self.acc["external_work"] += red[0]
-            self.acc["damping_dissipated"] += red[1]
-            self.acc["contact_dissipated"] -= red[2]
-            link_e, gc_e_g, phys_e_g = red[3], gc_e, phys_e
-            self._e_kin, self._e_int = float(red[4]), float(red[5])
+            link_e, gc_e_g, phys_e_g = self._explicit_balance(e_local), gc_e, phys_e
         if I is not None:
             I.accept(uf, vf, af)
             lam_force = lam[:n_g] / self.dt if (self.coupled and lam.size) else np.zeros(0)
             if self.coupled:
                 I.correct(lam_force)
                 self.impulse_I += 0.5 * self.dT * (self.lam_macro_prev + lam_force)
-            f1 = I.load(t1)
-            cv1 = I.damping_action(I.v)
-            vbar = 0.5 * (vI0 + I.v)
-            link_i = 0.0
-            if self.coupled:
-                assert self.LI is not None
-                fl = self.LI.transpose(0.5 * (self.lam_macro_prev + lam_force), I.model.n_owned)
-                link_i_loc = self.dT * float(np.dot(vbar, fl))
-                phys_i_loc = float(np.dot(I.u - uI0, fl))
-            else:
-                link_i_loc = phys_i_loc = 0.0
-            kin_old, pot_old = self._i_kin, self._i_int
-            red_i = self._sum(
-                [
-                    self.dT * float(np.dot(vbar, 0.5 * (f0 + f1))),
-                    self.dT * float(np.dot(vbar, 0.5 * (cv0 + cv1))),
-                    link_i_loc,
-                    phys_i_loc,
-                    0.5 * float(np.dot(I.v, I.mass_action(I.v))),
-                    0.5 * float(np.dot(I.u, I.stiffness_action(I.u))),
-                ]
-            )
-            w_ext, w_damp, link_i, phys_i = (float(x) for x in red_i[:4])
-            self._i_kin, self._i_int = float(red_i[4]), float(red_i[5])
-            self.acc["external_work"] += w_ext
-            self.acc["damping_dissipated"] += w_damp
-            # Algorithmic energy of Newmark in the measure ½VᵀMV + ½UᵀKU (zero for β = ¼, γ = ½
-            # without damping): work of all forces in velocity form minus the energy change.
-            d_energy = (self._i_kin + self._i_int) - (kin_old + pot_old)
-            self.acc["numerical_dissipated"] += (w_ext - w_damp + link_i) - d_energy
+            mean_force = 0.5 * (self.lam_macro_prev + lam_force) if self.coupled else None
+            link_i, phys_i = self._implicit_balance(uI0, vI0, f0, I.load(t1), cv0, mean_force)
             self.lam_macro_prev = lam_force
         if self.coupled:
             self.acc["interface_dissipated"] -= link_e + link_i
@@ -624,7 +644,7 @@ class CoupledIntegrator:
         r_I = self.LI.apply(du_free)[:n_g]
         state = E.save()
         saved = (self.lam_prev.copy(), self.w_prev.copy(), self.impulse_E.copy())
-        G = self.G_prev.copy()
+        G = self.lam_macro_prev.copy()  # predictor: the previous macro step's G
         for k in range(self.ec_max_passes):
             if k:
                 E.restore(state)
@@ -650,33 +670,12 @@ class CoupledIntegrator:
         du = du_free + 0.5 * dT * dT * (G @ I.X)
         I.accept(uI0 + du, 2.0 * du / dT - vI0, I.a)
         self.impulse_I += dT * G
-        fl = self.LI.transpose(G, I.model.n_owned)
-        cv0, cv1 = I.damping_action(vI0), I.damping_action(I.v)
-        kin_old, pot_old = self._i_kin, self._i_int
-        vbar = du / dT
-        red = self._sum(
-            [sums[k] for k in LINK_TERMS]
-            + [*E_energy(E)]
-            + [
-                dT * float(np.dot(vbar, 0.5 * (f0 + f1))),
-                dT * float(np.dot(vbar, 0.5 * (cv0 + cv1))),
-                float(np.dot(du, fl)),
-                0.5 * float(np.dot(I.v, I.mass_action(I.v))),
-                0.5 * float(np.dot(I.u, I.stiffness_action(I.u))),
-            ]
-        )
-        self.acc["external_work"] += red[0] + red[6]
-        self.acc["damping_dissipated"] += red[1] + red[7]
-        self.acc["contact_dissipated"] -= red[2]
-        self._e_kin, self._e_int = float(red[4]), float(red[5])
-        self._i_kin, self._i_int = float(red[9]), float(red[10])
-        d_energy = (self._i_kin + self._i_int) - (kin_old + pot_old)
-        self.acc["numerical_dissipated"] += (red[6] - red[7] + red[8]) - d_energy
-        link = red[3] + red[8]  # work of G on both sides: Gᵀ r
+        # V̄ = ½(V_0 + V_1) = ΔU/ΔT here, so both link-work forms are Gᵀ L_I ΔU.
+        link_i, _ = self._implicit_balance(uI0, vI0, f0, f1, I.damping_action(vI0), G)
+        link = self._explicit_balance(sums) + link_i  # work of G on both sides: Gᵀ r
         self.acc["interface_dissipated"] -= link
         self.acc["interface_energy_gc"] -= link
         self.acc["interface_work_physical"] -= link
-        self.G_prev = G
         self.lam_macro_prev = G.copy()
         self.n += 1
         rec = self._record(lam, gaps, micro)
