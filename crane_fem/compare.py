@@ -25,6 +25,7 @@ import numpy as np
 import numpy.typing as npt
 
 from crane_fem.plotting import Run, load_runs
+from crane_fem.scenario import COUPLED_METHODS
 
 __all__ = [
     "compare_runs",
@@ -151,7 +152,7 @@ def write_comparison(outdir: Path) -> tuple[Path, dict[str, Any]] | None:
     """Compare the coupled and the monolithic run found under ``outdir``; write
     ``comparison.json`` there. None unless there is one run of each."""
     runs = load_runs(outdir)
-    het = [r for r in runs if r.summary.get("method") in ("gc", "ph", "ec")]
+    het = [r for r in runs if r.summary.get("method") in COUPLED_METHODS]
     exp = [r for r in runs if r.summary.get("method") == "monolithic"]
     if len(het) != 1 or len(exp) != 1:
         return None

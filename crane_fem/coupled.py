@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import dolfinx
 import dolfinx.fem.petsc
@@ -26,7 +27,15 @@ from crane_fem.loading import Accelerogram
 from crane_fem.mesh import Segment
 from crane_fem.model import LoadFunction
 from crane_fem.preload import Preload, static_preload
-from crane_fem.scenario import BarModel, BoxBeamModel, CraneModel, GroundMotion, Scenario
+from crane_fem.scenario import (
+    COUPLED_METHODS,
+    BarModel,
+    BoxBeamModel,
+    Coupling,
+    CraneModel,
+    GroundMotion,
+    Scenario,
+)
 from crane_fem.stability import critical_time_step, max_frequency
 from crane_fem.subdomains import Subdomain, create_subdomain, global_ids
 
@@ -63,6 +72,14 @@ def _ground_motion_at(gm: GroundMotion) -> Callable[[float], float]:
         return ramp * record(start + t)
 
     return a_g
+
+
+def _hybrid_options(cpl: Coupling | None) -> dict[str, Any]:
+    """The "hybrid" keys given in [coupling] (the integrator's defaults otherwise)."""
+    if cpl is None:
+        return {}
+    keys = ("impact_ratio", "interface_tolerance")
+    return {k: getattr(cpl, k) for k in keys if getattr(cpl, k) is not None}
 
 
 def _ground_motion(gm: GroundMotion) -> Accelerogram:
@@ -286,9 +303,10 @@ class CoupledSimulation:
             self.E_int,
             self.I_int,
             ratio if coupled else 1,
-            method if method in ("ph", "ec") else "gc",
+            method if method in COUPLED_METHODS else "gc",
             li if coupled else None,
             dt=self.dt,
+            **_hybrid_options(cpl if coupled else None),
         )
         self.interface_force0 = self._interface_force0() if coupled else None
 

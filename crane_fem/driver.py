@@ -517,6 +517,8 @@ def run_coupled(
         summary["interface_energy_gc_min_step"] = (
             ifd_min_step if math.isfinite(ifd_min_step) else 0.0
         )
+        if integ.method == "hybrid":  # macro steps of each kind
+            summary["hybrid_steps"] = dict(integ.hybrid_steps)
         if integ.ec_passes:  # "ec": explicit passes per macro step, worst residual
             summary["ec_passes_mean"] = float(np.mean(integ.ec_passes))
             summary["ec_passes_max"] = int(np.max(integ.ec_passes))

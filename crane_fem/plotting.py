@@ -28,6 +28,7 @@ import numpy.typing as npt
 
 from crane_fem.energy import BALANCE_TERMS
 from crane_fem.io.history import read_history
+from crane_fem.scenario import COUPLED_METHODS
 
 __all__ = ["Run", "load_runs", "plot_outputs", "render_peak"]
 
@@ -47,7 +48,7 @@ class Run:
         s = self.summary
         if s.get("method") == "monolithic":
             return "fully explicit" if s.get("explicit_subdomains") else "fully implicit"
-        if s.get("method") in ("gc", "ph", "ec"):
+        if s.get("method") in COUPLED_METHODS:
             return f"heterogeneous ({str(s['method']).upper()}, m = {s.get('ratio')})"
         return self.path.name
 

@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import tomllib
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from crane_fem.errors import ScenarioError
 
 __all__ = [
+    "COUPLED_METHODS",
     "Contact",
     "Integrator",
     "Scenario",
@@ -30,6 +31,9 @@ PositiveInt = Annotated[int, Field(gt=0)]
 Pair = Annotated[list[float], Field(min_length=2, max_length=2)]
 NonNegativePair = Annotated[list[NonNegativeFloat], Field(min_length=2, max_length=2)]
 Vector3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+CoupledMethod = Literal["gc", "ph", "ec", "hybrid"]
+#: The methods that couple an explicit and an implicit subdomain (docs/scenarios.md).
+COUPLED_METHODS: tuple[str, ...] = get_args(CoupledMethod)
 
 
 class _Section(BaseModel):
@@ -324,9 +328,15 @@ class Coupling(_Section):
     """How subdomains are integrated: GC or PH coupling with ΔT = ratio × Δt, or the whole
     mesh as one subdomain with ``scheme`` (the monolithic reference)."""
 
-    method: Literal["gc", "ph", "ec", "monolithic"] = "gc"
+    method: CoupledMethod | Literal["monolithic"] = "gc"
     ratio: PositiveInt = 1
     scheme: Literal["cd-lagrange", "newmark"] | None = None
+    #: "hybrid": micro steps per implicit step in the macro steps where an explicit contact
+    #: changes state (a divisor of ``ratio``; 1 by default).
+    impact_ratio: PositiveInt | None = None
+    #: "hybrid": a GC macro step whose interface energy exceeds this fraction of the
+    #: mechanical energy (kinetic + internal) is redone with ``impact_ratio``.
+    interface_tolerance: PositiveFloat | None = None
 
     @property
     def monolithic_scheme(self) -> str:
@@ -412,9 +422,19 @@ class Scenario(_Section):
             return self
         if cpl is not None and cpl.scheme is not None:
             raise ValueError("coupling.scheme applies to method 'monolithic' only")
+        if cpl is not None and cpl.method != "hybrid":
+            for key in ("impact_ratio", "interface_tolerance"):
+                if getattr(cpl, key) is not None:
+                    raise ValueError(f"coupling.{key} applies to method 'hybrid' only")
+        if cpl is not None and cpl.impact_ratio is not None:
+            if cpl.ratio % cpl.impact_ratio:
+                raise ValueError(
+                    f"coupling.impact_ratio = {cpl.impact_ratio} must divide coupling.ratio = "
+                    f"{cpl.ratio}"
+                )
         if (
             cpl is not None
-            and cpl.method == "ec"
+            and cpl.method in ("ec", "hybrid")
             and (
                 self.newmark.beta,
                 self.newmark.gamma,
@@ -422,7 +442,7 @@ class Scenario(_Section):
             != (0.25, 0.5)
         ):
             raise ValueError(
-                "coupling.method 'ec' needs the average-acceleration Newmark "
+                f"coupling.method {cpl.method!r} needs the average-acceleration Newmark "
                 "(newmark.beta = 0.25, newmark.gamma = 0.5)"
             )
         if not self.subdomain:

@@ -208,6 +208,8 @@ class CoupledIntegrator:
         method: str = "gc",
         l_implicit: ContactSet | None = None,
         dt: float | None = None,
+        impact_ratio: int = 1,
+        interface_tolerance: float = 5e-4,
     ) -> None:
         if explicit is None and implicit is None:
             raise ValueError("nothing to integrate")
@@ -237,6 +239,19 @@ class CoupledIntegrator:
         self.ec_max_passes = EC_MAX_PASSES
         self.ec_passes: list[int] = []
         self.ec_residual = 0.0
+        # "hybrid": micro steps per implicit step in the macro steps where an explicit
+        # contact changes state, the Newmark operator for that step (built at the first
+        # impact), the interface solvers per ratio, the contact set watched by ``_micro``,
+        # and the count of macro steps of each kind.
+        if impact_ratio < 1 or self.m % impact_ratio:
+            raise ValueError(f"impact_ratio = {impact_ratio} must divide the ratio m = {self.m}")
+        self.impact_ratio = int(impact_ratio)
+        self.interface_tolerance = float(interface_tolerance)
+        self._I_impact: Newmark | None = None
+        self._solvers: dict[int, tuple[FloatArray | None, FloatArray, FloatArray]] = {}
+        self._watch: npt.NDArray[np.bool_] | None = None
+        self._changed = False
+        self.hybrid_steps = {"gc": 0, "gc_refined": 0, "ec": 0}
         self._setup_interface_solver()
 
     def _setup_interface_solver(self) -> None:
@@ -247,6 +262,7 @@ class CoupledIntegrator:
         one symmetric eigendecomposition serves every j, each solve costs two O(n_Γ²) products.
         """
         self._Q: FloatArray | None = None
+        self._s = self._dinv_sqrt = np.zeros(0)
         if not self.coupled or self.n_gamma == 0:
             return
         E, I = self.E, self.I  # noqa: E741
@@ -436,6 +452,8 @@ class CoupledIntegrator:
         n_g, m = self.n_gamma, self.m
         fr = E.free(t, E.dt, move=True)
         active = E.contacts.closed(fr["gaps"][n_g:])
+        if self._watch is not None and not self._changed:
+            self._changed = bool(np.any(active != self._watch))
         q = fr["q"].copy()
         solver = self._solver_for(j) if n_g and imposed is None else None
         if n_g and imposed is None:
@@ -486,8 +504,17 @@ class CoupledIntegrator:
         """One macro step (m micro steps when coupled) (collective)."""
         if self.coupled and self.method == "ec":
             return self._step_ec()
+        if self.coupled and self.method == "hybrid":
+            return self._step_hybrid()
+        lam, gaps, micro = self._gc_macro(self.n * self.dT)
+        self.n += 1
+        return self._record(lam, gaps, micro)
+
+    def _gc_macro(self, t0: float) -> tuple[FloatArray, FloatArray, list[tuple[float, bool]]]:
+        """The GC (or PH) step [t0, t0 + ΔT] with the current m, ΔT and implicit side; books
+        its energy terms; returns the last multipliers, gaps and the micro-step contact flags
+        (collective)."""
         E, I, m = self.E, self.I, self.m  # noqa: E741
-        t0 = self.n * self.dT
         t1 = t0 + self.dT
         n_g = self.n_gamma
         micro: list[tuple[float, bool]] = []
@@ -545,8 +572,7 @@ class CoupledIntegrator:
             self.acc["interface_dissipated"] -= link_e + link_i
             self.acc["interface_energy_gc"] -= gc_e_g + link_i
             self.acc["interface_work_physical"] -= phys_e_g + phys_i
-        self.n += 1
-        return self._record(lam, gaps, micro)
+        return lam, gaps, micro
 
     # ------------------------------------------------------------------------------------
     # "ec": multipliers constant over the macro step, continuity of the interface
@@ -627,41 +653,83 @@ class CoupledIntegrator:
         return self._ec_lu[key]
 
     def _step_ec(self) -> MacroRecord:
-        """One macro step of the "ec" coupling (collective): implicit free trapezoidal
-        increment, explicit passes under a constant link force G corrected until the
-        interface displacement increments agree (one correction when no contact changes
-        state between passes), then the implicit link increment ½ΔT² M̃⁻¹ L_Iᵀ G."""
+        """One macro step of the "ec" coupling (collective)."""
+        E = self.E
+        assert E is not None
+        closed = E.contacts.closed(self._contact_gaps())
+        out = self._ec_macro(self.n * self.dT, closed, fallback=False)
+        assert out is not None
+        return self._ec_record(*out)
+
+    def _contact_gaps(self) -> FloatArray:
+        """Gaps of the explicit contact points at the current time (global)."""
+        E = self.E
+        assert E is not None
+        n_g = self.n_gamma
+        return E.stack.g0[n_g:] + E.stack.apply(E.u)[n_g:]
+
+    def _ec_record(
+        self, lam: FloatArray, gaps: FloatArray, micro: list[tuple[float, bool]], G: FloatArray
+    ) -> MacroRecord:
+        self.n += 1
+        rec = self._record(lam, gaps, micro)
+        rec.interface_impulse = G.copy()
+        return rec
+
+    def _ec_macro(
+        self, t0: float, closed: npt.NDArray[np.bool_], fallback: bool
+    ) -> tuple[FloatArray, FloatArray, list[tuple[float, bool]], FloatArray] | None:
+        """The "ec" step [t0, t0 + ΔT]: implicit free trapezoidal increment, explicit passes
+        under a constant link force G corrected until the interface displacement increments
+        agree (one correction when no contact changes state between passes), then the
+        implicit link increment ½ΔT² M̃⁻¹ L_Iᵀ G. Books its energy terms and returns the last
+        multipliers, gaps, micro-step contact flags and G (collective).
+
+        ``closed``: the contacts closed at t0 (held in the Newton direction). With
+        ``fallback`` ("hybrid"), a pass in which a contact becomes active, or passes that do
+        not converge, leave every state as it was at t0 and return None; without it,
+        non-convergence is an error."""
         E, I = self.E, self.I  # noqa: E741
         assert E is not None and I is not None and self.LI is not None
         n_g, dT = self.n_gamma, self.dT
-        t0, t1 = self.n * dT, (self.n + 1) * dT
+        t1 = t0 + dT
         # Newton direction from the explicit compliance with the contacts as they are at the
         # start of the step (closed ones held as bilateral constraints).
-        factor = self._ec_factor(E.contacts.closed(E.stack.g0[n_g:] + E.stack.apply(E.u)[n_g:]))
+        factor = self._ec_factor(closed)
         uI0, vI0 = I.u.copy(), I.v.copy()
         f0, f1 = I.load(t0), I.load(t1)
         du_free = I.trapezoid_free_increment(f0, f1)
         r_I = self.LI.apply(du_free)[:n_g]
         state = E.save()
         saved = (self.lam_prev.copy(), self.w_prev.copy(), self.impulse_E.copy())
+
+        def rewind() -> None:
+            E.restore(state)
+            self.lam_prev, self.w_prev = saved[0].copy(), saved[1].copy()
+            self.impulse_E = saved[2].copy()
+
         G = self.lam_macro_prev.copy()  # predictor: the previous macro step's G
         for k in range(self.ec_max_passes):
             if k:
-                E.restore(state)
-                self.lam_prev, self.w_prev = saved[0].copy(), saved[1].copy()
-                self.impulse_E = saved[2].copy()
+                rewind()
             lam, gaps, sums, micro, ld = self._ec_pass(t0, G)
+            if fallback and any(a for _, a in micro):
+                rewind()
+                return None
             r = ld + r_I + 0.5 * dT * dT * (I.W @ G)
             scale = max(_amax(ld), _amax(r_I), 1e-300)
             if _amax(r) <= EC_TOL * scale:
                 break
             if k == self.ec_max_passes - 1:
+                if fallback:
+                    rewind()
+                    return None
                 raise CraneFemError(
                     f"coupling method 'ec': the interface constraint of the macro step ending "
                     f"at t = {t1:.6g} s is still off by {_amax(r) / scale:.2e} (relative) after "
                     f"{k + 1} explicit passes: a contact changing state within the step, within "
                     "reach of the interface, makes the explicit side nonlinear (the passes "
-                    "need not converge); use coupling.method = 'gc'"
+                    "need not converge); use coupling.method = 'gc' or 'hybrid'"
                 )
             G = G - scipy.linalg.cho_solve(factor, r)
         self.ec_passes.append(k + 1)
@@ -677,10 +745,108 @@ class CoupledIntegrator:
         self.acc["interface_energy_gc"] -= link
         self.acc["interface_work_physical"] -= link
         self.lam_macro_prev = G.copy()
+        return lam, gaps, micro, G
+
+    # ------------------------------------------------------------------------------------
+    # "hybrid": ec while every explicit contact is open (the explicit side is linear, the
+    # interface then conserves energy), GC otherwise; a GC macro step in which a contact
+    # changes state (an impact, a lift-off), or whose interface energy exceeds
+    # ``interface_tolerance`` × the mechanical energy, is redone as m / r GC steps of r micro
+    # steps (docs/theory-notes.md §8).
+    def _snapshot(self) -> tuple[object, ...]:
+        E, I = self.E, self.I  # noqa: E741
+        assert E is not None and I is not None
+        arrays = (self.lam_prev, self.lam_macro_prev, self.w_prev, self.impulse_E, self.impulse_I)
+        return (
+            E.save(),
+            (I.u.copy(), I.v.copy(), I.a.copy()),
+            tuple(a.copy() for a in arrays),
+            dict(self.acc),
+            (self._e_kin, self._e_int, self._i_kin, self._i_int),
+        )
+
+    def _restore(self, snap: tuple[object, ...]) -> None:
+        E, I = self.E, self.I  # noqa: E741
+        assert E is not None and I is not None
+        e_state, i_state, arrays, acc, energies = snap
+        E.restore(e_state)  # type: ignore[arg-type]
+        I.u, I.v, I.a = (x.copy() for x in i_state)  # type: ignore[attr-defined]
+        (
+            self.lam_prev,
+            self.lam_macro_prev,
+            self.w_prev,
+            self.impulse_E,
+            self.impulse_I,
+        ) = (x.copy() for x in arrays)  # type: ignore[attr-defined]
+        self.acc = dict(acc)  # type: ignore[call-overload]
+        self._e_kin, self._e_int, self._i_kin, self._i_int = energies  # type: ignore[misc]
+
+    def _use_ratio(self, m: int, implicit: Newmark) -> None:
+        """Run the next GC steps with m micro steps per step on ``implicit`` (its ΔT = mΔt)."""
+        self.I, self.m, self.dT = implicit, m, m * self.dt
+        if m not in self._solvers:
+            self._setup_interface_solver()
+            self._solvers[m] = (self._Q, self._s, self._dinv_sqrt)
+        self._Q, self._s, self._dinv_sqrt = self._solvers[m]
+
+    def _gc_refined(self, t0: float) -> tuple[FloatArray, FloatArray, list[tuple[float, bool]]]:
+        """The macro step [t0, t0 + ΔT] as m / r GC steps of r micro steps; the implicit
+        state (U, V, A of average acceleration or any Newmark) carries over both ways."""
+        I, m, r = self.I, self.m, self.impact_ratio  # noqa: E741
+        assert I is not None
+        if self._I_impact is None:
+            self._solvers.setdefault(m, (self._Q, self._s, self._dinv_sqrt))
+            self._I_impact = Newmark(
+                I.model, I.load, r * self.dt, I.u, I.v, I.beta, I.gamma, I.interface, I.consistent
+            )
+        fine = self._I_impact
+        fine.u, fine.v, fine.a = I.u.copy(), I.v.copy(), I.a.copy()
+        self._use_ratio(r, fine)
+        micro: list[tuple[float, bool]] = []
+        try:
+            for i in range(m // r):
+                lam, gaps, mic = self._gc_macro(t0 + i * r * self.dt)
+                micro += mic
+        finally:
+            I.u, I.v, I.a = fine.u.copy(), fine.v.copy(), fine.a.copy()
+            self._use_ratio(m, I)
+        return lam, gaps, micro
+
+    def _mechanical_energy(self) -> float:
+        """Kinetic + internal energy of both sides (global)."""
+        return self._e_kin + self._e_int + self._i_kin + self._i_int
+
+    def _step_hybrid(self) -> MacroRecord:
+        """One macro step of the "hybrid" coupling (collective; every decision is taken on
+        global quantities, the same on every rank)."""
+        E, I = self.E, self.I  # noqa: E741
+        assert E is not None and I is not None and self.LI is not None
+        t0 = self.n * self.dT
+        closed = E.contacts.closed(self._contact_gaps())
+        if not np.any(closed):
+            out = self._ec_macro(t0, closed, fallback=True)
+            if out is not None:
+                # The next step may be GC: the acceleration at t0 + ΔT under the force G.
+                I.initialize(t0 + self.dT, self.LI.transpose(out[3], I.model.n_owned))
+                self.hybrid_steps["ec"] += 1
+                return self._ec_record(*out)
+        snap = self._snapshot() if self.impact_ratio < self.m else None
+        e_gamma, mech = self.acc["interface_dissipated"], self._mechanical_energy()
+        self._watch, self._changed = closed, False
+        try:
+            lam, gaps, micro = self._gc_macro(t0)
+        finally:
+            self._watch = None
+        d_gamma = abs(self.acc["interface_dissipated"] - e_gamma)
+        mech = max(mech, self._mechanical_energy())
+        if snap is not None and (self._changed or d_gamma > self.interface_tolerance * mech):
+            self._restore(snap)
+            lam, gaps, micro = self._gc_refined(t0)
+            self.hybrid_steps["gc_refined"] += 1
+        else:
+            self.hybrid_steps["gc"] += 1
         self.n += 1
-        rec = self._record(lam, gaps, micro)
-        rec.interface_impulse = G.copy()
-        return rec
+        return self._record(lam, gaps, micro)
 
     def _ph_solve(self, t0: float, wIf: FloatArray) -> FloatArray:
         """Prakash–Hjelmstad: Λ_m from continuity at the macro step only (explicit linear)."""
@@ -711,6 +877,8 @@ class CoupledIntegrator:
             self.E.destroy()
         if self.I is not None:
             self.I.destroy()
+        if self._I_impact is not None:
+            self._I_impact.destroy()
 
 
 def _rows(stack: ContactSet, n: int) -> ContactSet:
