@@ -252,6 +252,7 @@ class CoupledIntegrator:
         self._watch: npt.NDArray[np.bool_] | None = None
         self._changed = False
         self.hybrid_steps = {"gc": 0, "gc_refined": 0, "ec": 0}
+        self._cv_cache: tuple[FloatArray, FloatArray] | None = None
         self._setup_interface_solver()
 
     def _setup_interface_solver(self) -> None:
@@ -399,6 +400,14 @@ class CoupledIntegrator:
         self._e_kin, self._e_int = float(red[4]), float(red[5])
         return float(red[3])
 
+    def _damping_now(self) -> FloatArray:
+        """C V of the implicit side now, from the last balance when V has not changed."""
+        I = self.I  # noqa: E741
+        assert I is not None
+        if self._cv_cache is not None and self._cv_cache[0] is I.v:
+            return self._cv_cache[1]
+        return I.damping_action(I.v)
+
     def _implicit_balance(
         self,
         uI0: FloatArray,
@@ -415,7 +424,8 @@ class CoupledIntegrator:
         I = self.I  # noqa: E741
         assert I is not None
         vbar = 0.5 * (vI0 + I.v)
-        cv1 = I.damping_action(I.v)
+        mv1, cv1 = I.mass_and_damping(I.v)
+        self._cv_cache = (I.v, cv1)  # C V at the end: the next step's C V_0
         link = phys = 0.0
         if force is not None:
             assert self.LI is not None
@@ -429,7 +439,7 @@ class CoupledIntegrator:
                 self.dT * float(np.dot(vbar, 0.5 * (cv0 + cv1))),
                 link,
                 phys,
-                0.5 * float(np.dot(I.v, I.mass_action(I.v))),
+                0.5 * float(np.dot(I.v, mv1)),
                 0.5 * float(np.dot(I.u, I.stiffness_action(I.u))),
             ]
         )
@@ -523,10 +533,10 @@ class CoupledIntegrator:
         lam = np.zeros(0)
         gaps = np.zeros(0)
         if I is not None:
+            cv0 = self._damping_now()
             uf, vf, af = I.free_step(t1)
             uI0, vI0 = I.u.copy(), I.v.copy()
             f0 = I.load(t0)
-            cv0 = I.damping_action(vI0)
         if E is not None:
             wI0 = wIf = np.zeros(n_g)
             if self.coupled:
@@ -697,6 +707,7 @@ class CoupledIntegrator:
         # start of the step (closed ones held as bilateral constraints).
         factor = self._ec_factor(closed)
         uI0, vI0 = I.u.copy(), I.v.copy()
+        cv0 = self._damping_now()
         f0, f1 = I.load(t0), I.load(t1)
         du_free = I.trapezoid_free_increment(f0, f1)
         r_I = self.LI.apply(du_free)[:n_g]
@@ -739,7 +750,7 @@ class CoupledIntegrator:
         I.accept(uI0 + du, 2.0 * du / dT - vI0, I.a)
         self.impulse_I += dT * G
         # V̄ = ½(V_0 + V_1) = ΔU/ΔT here, so both link-work forms are Gᵀ L_I ΔU.
-        link_i, _ = self._implicit_balance(uI0, vI0, f0, f1, I.damping_action(vI0), G)
+        link_i, _ = self._implicit_balance(uI0, vI0, f0, f1, cv0, G)
         link = self._explicit_balance(sums) + link_i  # work of G on both sides: Gᵀ r
         self.acc["interface_dissipated"] -= link
         self.acc["interface_energy_gc"] -= link

@@ -162,6 +162,14 @@ class Newmark:
             out += m.beta * self.stiffness_action(x)
         return out
 
+    def mass_and_damping(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """(M x, C x) with one mass product (C = αM + β_R K)."""
+        mx = self.mass_action(x)
+        cx = self.model.alpha * mx
+        if self.model.beta:
+            cx += self.model.beta * self.stiffness_action(x)
+        return mx, cx
+
     def initialize(self, t0: float, link: FloatArray | None = None) -> None:
         """A_0 from M A_0 = F_0 − K U_0 − C V_0 (+ link force) (collective)."""
         rhs = self.load(t0) - self.stiffness_action(self.u) - self.damping_action(self.v)
