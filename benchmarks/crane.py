@@ -18,6 +18,7 @@ import subprocess
 import sys
 import tomllib
 from pathlib import Path
+from typing import Any
 
 from crane_fem.compare import compare_runs, pair_l2
 from crane_fem.plotting import load_runs
@@ -67,22 +68,9 @@ def main() -> int:
     print("| " + " | ".join(cols) + " |")
     print("|---|---|---|---|---|---|")
 
-    def pct(a: float, b: float) -> str:
-        return f"{100 * a:.2f} / {100 * b:.2f} %"
-
     for k, w in cmp["wheels"].items():
-        shift = w.get("onset_shift_macro_steps")
-        land = (
-            pct(w["wheel_uz_l2_to_first_landing"], w["rail_uz_l2_to_first_landing"])
-            if "wheel_uz_l2_to_first_landing" in w
-            else "—"
-        )
         pert = pct(*perturbed[int(k)]) if int(k) in perturbed else "—"
-        print(
-            f"| {k} | {pct(w['wheel_uz_l2_dynamic'], w['rail_uz_l2_dynamic'])} | {land} "
-            f"| {pert} | {len(w['lift_offs_heterogeneous'])} / "
-            f"{len(w['lift_offs_explicit'])} | {'—' if shift is None else f'{shift:.1f}'} |"
-        )
+        print(_row(k, w, [pert]))
     e_max = cmp["interface_dissipated_max_abs_J"]
     print(
         f"\nInterface-dissipated energy: max |E_Γ| = {e_max:.3e} J "
@@ -110,17 +98,7 @@ def main() -> int:
     print("| " + " | ".join([*cols[:3], *cols[4:]]) + " |")
     print("|---|---|---|---|---|")
     for k, w in hc["wheels"].items():
-        shift = w.get("onset_shift_macro_steps")
-        land = (
-            pct(w["wheel_uz_l2_to_first_landing"], w["rail_uz_l2_to_first_landing"])
-            if "wheel_uz_l2_to_first_landing" in w
-            else "—"
-        )
-        print(
-            f"| {k} | {pct(w['wheel_uz_l2_dynamic'], w['rail_uz_l2_dynamic'])} | {land} "
-            f"| {len(w['lift_offs_heterogeneous'])} / {len(w['lift_offs_explicit'])} "
-            f"| {'—' if shift is None else f'{shift:.1f}'} |"
-        )
+        print(_row(k, w, []))
     print(
         f"\nInterface energy: max |E_Γ| = {hc['interface_dissipated_max_abs_J']:.3e} J = "
         f"{100 * hc['interface_dissipated_over_external_work']:.3f} % of max |external work|; "
@@ -128,6 +106,25 @@ def main() -> int:
         f"{hc['wall_time_ratio_explicit_over_heterogeneous']:.2f}."
     )
     return 0
+
+
+def pct(a: float, b: float) -> str:
+    return f"{100 * a:.2f} / {100 * b:.2f} %"
+
+
+def _row(k: str, w: dict[str, Any], extra: list[str]) -> str:
+    """One wheel's Markdown row: L2 over the run and up to the first landing, ``extra``
+    cells, lift-offs and the onset shift."""
+    shift = w.get("onset_shift_macro_steps")
+    land = (
+        pct(w["wheel_uz_l2_to_first_landing"], w["rail_uz_l2_to_first_landing"])
+        if "wheel_uz_l2_to_first_landing" in w
+        else "—"
+    )
+    cells = [str(k), pct(w["wheel_uz_l2_dynamic"], w["rail_uz_l2_dynamic"]), land, *extra]
+    cells += [f"{len(w['lift_offs_heterogeneous'])} / {len(w['lift_offs_explicit'])}"]
+    cells += ["—" if shift is None else f"{shift:.1f}"]
+    return "| " + " | ".join(cells) + " |"
 
 
 if __name__ == "__main__":
