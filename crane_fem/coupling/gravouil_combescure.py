@@ -173,6 +173,17 @@ EC_CACHE = 16
 LINK_TERMS = ("external_work", "damping_dissipated", "contact_work", "link_work")
 
 
+@dataclass
+class _Snapshot:
+    """Everything a coupled macro step changes, to redo it ("hybrid")."""
+
+    explicit: tuple[FloatArray, ...]
+    implicit: tuple[FloatArray, ...]
+    arrays: tuple[FloatArray, ...]
+    acc: dict[str, float]
+    energies: tuple[float, float, float, float]
+
+
 def _amax(x: FloatArray) -> float:
     return float(np.max(np.abs(x), initial=0.0))
 
@@ -764,11 +775,11 @@ class CoupledIntegrator:
     # changes state (an impact, a lift-off), or whose interface energy exceeds
     # ``interface_tolerance`` × the mechanical energy, is redone as m / r GC steps of r micro
     # steps (docs/theory-notes.md §8).
-    def _snapshot(self) -> tuple[object, ...]:
+    def _snapshot(self) -> _Snapshot:
         E, I = self.E, self.I  # noqa: E741
         assert E is not None and I is not None
         arrays = (self.lam_prev, self.lam_macro_prev, self.w_prev, self.impulse_E, self.impulse_I)
-        return (
+        return _Snapshot(
             E.save(),
             (I.u.copy(), I.v.copy(), I.a.copy()),
             tuple(a.copy() for a in arrays),
@@ -776,21 +787,15 @@ class CoupledIntegrator:
             (self._e_kin, self._e_int, self._i_kin, self._i_int),
         )
 
-    def _restore(self, snap: tuple[object, ...]) -> None:
+    def _restore(self, snap: _Snapshot) -> None:
         E, I = self.E, self.I  # noqa: E741
         assert E is not None and I is not None
-        e_state, i_state, arrays, acc, energies = snap
-        E.restore(e_state)  # type: ignore[arg-type]
-        I.u, I.v, I.a = (x.copy() for x in i_state)  # type: ignore[attr-defined]
-        (
-            self.lam_prev,
-            self.lam_macro_prev,
-            self.w_prev,
-            self.impulse_E,
-            self.impulse_I,
-        ) = (x.copy() for x in arrays)  # type: ignore[attr-defined]
-        self.acc = dict(acc)  # type: ignore[call-overload]
-        self._e_kin, self._e_int, self._i_kin, self._i_int = energies  # type: ignore[misc]
+        E.restore(snap.explicit)
+        I.u, I.v, I.a = (x.copy() for x in snap.implicit)
+        arrays = [x.copy() for x in snap.arrays]
+        self.lam_prev, self.lam_macro_prev, self.w_prev, self.impulse_E, self.impulse_I = arrays
+        self.acc = dict(snap.acc)
+        self._e_kin, self._e_int, self._i_kin, self._i_int = snap.energies
 
     def _use_ratio(self, m: int, implicit: Newmark) -> None:
         """Run the next GC steps with m micro steps per step on ``implicit`` (its ΔT = mΔt)."""
