@@ -184,12 +184,15 @@ def test_quick_scene_figures_and_paraview_output(quick_runs) -> None:
 
 @pytest.mark.serial
 @pytest.mark.mpi
-def test_quick_scene_mpiexec_same_histories(tmp_path) -> None:
+@pytest.mark.parametrize("method", ["gc", "hybrid"])
+def test_quick_scene_mpiexec_same_histories(tmp_path, method) -> None:
     """`mpiexec -n 2 crane-fem run` on the quick scene = serial (≤ 1e-8 relative), with
-    contact pairs and interface DOFs on both ranks."""
+    contact pairs and interface DOFs on both ranks; "hybrid": with its three kinds of macro
+    step, decided the same way on both ranks."""
     mpiexec = Path(sys.executable).parent / "mpiexec"
     exe = Path(sys.executable).parent / "crane-fem"
     base = [str(exe), "run", str(QUICK), "--set", "output.xdmf=false", "--set", "time.end=0.03"]
+    base += ["--set", f"coupling.method='{method}'"]
     serial, par = tmp_path / "serial", tmp_path / "mpi"
     subprocess.run([*base, "-o", str(serial)], check=True, capture_output=True)
     subprocess.run(
@@ -197,6 +200,10 @@ def test_quick_scene_mpiexec_same_histories(tmp_path) -> None:
     )
     s2 = json.loads((par / "summary.json").read_text())
     assert s2["mpi_size"] == 2
+    if method == "hybrid":
+        s1 = json.loads((serial / "summary.json").read_text())
+        assert s2["hybrid_steps"] == s1["hybrid_steps"]
+        assert all(n > 0 for n in s1["hybrid_steps"].values())
     assert all(n > 0 for n in s2["contact_dofs_per_rank"]), s2["contact_dofs_per_rank"]
     assert all(n > 0 for n in s2["interface_dofs_per_rank"]), s2["interface_dofs_per_rank"]
     h1, h2 = read_history(serial / "history.csv"), read_history(par / "history.csv")
