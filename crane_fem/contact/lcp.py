@@ -70,6 +70,8 @@ def solve_mixed_lcp(
     if n_eq == 0:
         z = np.zeros_like(q)
         c = np.flatnonzero(active)
+        if c.size == 0:  # every point open: nothing to solve
+            return z
         sub = A[np.ix_(c, c)]
         diag = bool(np.all(sub == np.diag(np.diag(sub))))
         z[c] = solve_lcp(sub, q[c], np.ones(c.size, dtype=bool), diag)
