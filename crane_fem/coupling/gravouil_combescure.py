@@ -250,10 +250,12 @@ class CoupledIntegrator:
         self.ec_max_passes = EC_MAX_PASSES
         self.ec_passes: list[int] = []
         self.ec_residual = 0.0
-        # "hybrid": micro steps per implicit step in the macro steps where an explicit
-        # contact changes state, the Newmark operator for that step (built at the first
-        # impact), the interface solvers per ratio, the contact set watched by ``_micro``,
-        # and the count of macro steps of each kind.
+        # "hybrid": micro steps per implicit step in the refined macro steps, the interface
+        # energy of a GC step (relative to the mechanical energy) above which it is refined,
+        # the Newmark operator of the refined steps (built at the first one), the interface
+        # solvers per ratio, the contact set watched by ``_micro``, and the count of macro
+        # steps of each kind. (The state arrays of Newmark are replaced, never changed in
+        # place: ``_damping_now`` relies on it.)
         if impact_ratio < 1 or self.m % impact_ratio:
             raise ValueError(f"impact_ratio = {impact_ratio} must divide the ratio m = {self.m}")
         self.impact_ratio = int(impact_ratio)
