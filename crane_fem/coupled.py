@@ -29,6 +29,7 @@ from crane_fem.model import LoadFunction
 from crane_fem.preload import Preload, static_preload
 from crane_fem.scenario import (
     COUPLED_METHODS,
+    HYBRID_KEYS,
     BarModel,
     BoxBeamModel,
     Coupling,
@@ -78,8 +79,7 @@ def _hybrid_options(cpl: Coupling | None) -> dict[str, Any]:
     """The "hybrid" keys given in [coupling] (the integrator's defaults otherwise)."""
     if cpl is None:
         return {}
-    keys = ("impact_ratio", "interface_tolerance")
-    return {k: getattr(cpl, k) for k in keys if getattr(cpl, k) is not None}
+    return {k: getattr(cpl, k) for k in HYBRID_KEYS if getattr(cpl, k) is not None}
 
 
 def _ground_motion(gm: GroundMotion) -> Accelerogram:

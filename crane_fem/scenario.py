@@ -17,6 +17,7 @@ from crane_fem.errors import ScenarioError
 
 __all__ = [
     "COUPLED_METHODS",
+    "HYBRID_KEYS",
     "Contact",
     "Integrator",
     "Scenario",
@@ -34,6 +35,8 @@ Vector3 = Annotated[list[float], Field(min_length=3, max_length=3)]
 CoupledMethod = Literal["gc", "ph", "ec", "hybrid"]
 #: The methods that couple an explicit and an implicit subdomain (docs/scenarios.md).
 COUPLED_METHODS: tuple[str, ...] = get_args(CoupledMethod)
+#: The [coupling] keys of method "hybrid" only (its integrator's keyword arguments).
+HYBRID_KEYS = ("impact_ratio", "interface_tolerance")
 
 
 class _Section(BaseModel):
@@ -423,7 +426,7 @@ class Scenario(_Section):
         if cpl is not None and cpl.scheme is not None:
             raise ValueError("coupling.scheme applies to method 'monolithic' only")
         if cpl is not None and cpl.method != "hybrid":
-            for key in ("impact_ratio", "interface_tolerance"):
+            for key in HYBRID_KEYS:
                 if getattr(cpl, key) is not None:
                     raise ValueError(f"coupling.{key} applies to method 'hybrid' only")
         if cpl is not None and cpl.impact_ratio is not None:
