@@ -1,9 +1,10 @@
-"""Crane quick scene: accuracy, interface energy and speed of GC against the ratio m.
+"""Crane quick scene: accuracy, interface energy and speed of GC and hybrid against the ratio m.
 
     .venv/bin/python benchmarks/crane_ratio.py [-o OUTDIR]
 
-Runs `demos/crane_quick.toml` fully explicit once, then heterogeneous for m = 10, 20, 50, 100,
-200 (one after the other on the idle machine), compares each with the explicit run
+Runs `demos/crane_quick.toml` fully explicit once, then heterogeneous with `gc` and with
+`hybrid` for m = 10, 20, 50, 100, 200 (one after the other on the idle machine; 11 runs,
+about 7 minutes), compares each with the explicit run
 (crane_fem.compare), and writes the Markdown table kept in RESULTS.md and
 `benchmarks/results/crane_ratio.png` (error and interface energy against wall time). A run the
 energy-growth monitor stops is reported as unstable with the time it stopped.
@@ -20,6 +21,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENARIO = ROOT / "demos" / "crane_quick.toml"
+METHODS = ("gc", "hybrid")
 
 
 def main() -> int:
@@ -36,51 +38,55 @@ def main() -> int:
 
     exp = load_runs(out / "explicit")[0]
     rows = []
-    for m in (10, 20, 50, 100, 200):
-        d = out / f"m{m}"
-        res = subprocess.run([*base, "-o", str(d), "--set", f"coupling.ratio={m}"])
-        s = json.loads((d / "summary.json").read_text())
-        if res.returncode != 0:
-            rows.append((m, None, s))
-            continue
-        rows.append((m, compare_runs(load_runs(d)[0], exp), s))
+    for method in METHODS:
+        for m in (10, 20, 50, 100, 200):
+            d = out / f"{method}_m{m}"
+            cmd = [*base, "-o", str(d), "--set", f"coupling.ratio={m}"]
+            res = subprocess.run([*cmd, "--set", f"coupling.method='{method}'"])
+            s = json.loads((d / "summary.json").read_text())
+            cmp = compare_runs(load_runs(d)[0], exp) if res.returncode == 0 else None
+            rows.append((method, m, cmp, s))
     print("\n### Crane quick scene against m (python benchmarks/crane_ratio.py)\n")
     print(f"Fully explicit: {exp.summary['wall_time_s']:.1f} s.\n")
     print(
-        "| m | status | worst L2(u_z − u_z0) | lift-offs as explicit | E_Γ / max external work "
-        "| wall s | explicit / heterogeneous |"
+        "| method | m | status | worst L2(u_z − u_z0) | lift-offs as explicit "
+        "| E_Γ / max external work | wall s | explicit / heterogeneous |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     pts = []
-    for m, cmp, s in rows:
+    for method, m, cmp, s in rows:
         wall = float(s["wall_time_s"])
         if cmp is None:
             found = re.search(r"\(t = ([^)]*)\)", str(s.get("diagnosis", "")))
             when = f"stopped at t = {found.group(1)}" if found else "stopped"
-            print(f"| {m} | unstable, {when} | — | — | — | {wall:.1f} | — |")
+            print(f"| {method} | {m} | unstable, {when} | — | — | — | {wall:.1f} | — |")
             continue
         same = all(w["same_lift_off_count"] for w in cmp["wheels"].values())
         frac = cmp["interface_dissipated_over_external_work"]
         ratio = float(exp.summary["wall_time_s"]) / wall
         print(
-            f"| {m} | completed | {100 * cmp['worst_pair_uz_l2_dynamic']:.2f} % | "
-            f"{'yes' if same else 'no'} | {100 * frac:.1f} % | {wall:.1f} | {ratio:.2f} |"
+            f"| {method} | {m} | completed | {100 * cmp['worst_pair_uz_l2_dynamic']:.2f} % | "
+            f"{'yes' if same else 'no'} | {100 * frac:.2f} % | {wall:.1f} | {ratio:.2f} |"
         )
-        pts.append((m, wall, cmp["worst_pair_uz_l2_dynamic"], frac))
+        pts.append((method, m, wall, cmp["worst_pair_uz_l2_dynamic"], frac))
     if pts:
         import matplotlib
 
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        fig, ax = plt.subplots(figsize=(6.5, 4))
-        for m, wall, err, frac in pts:
-            ax.scatter(wall, 100 * err, color="C0")
-            ax.scatter(wall, 100 * frac, color="C1", marker="s")
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        for method, m, wall, err, frac in pts:
+            face = {"gc": None, "hybrid": "none"}[method]
+            ax.scatter(wall, 100 * err, edgecolors="C0", facecolors=face or "C0")
+            ax.scatter(wall, 100 * frac, edgecolors="C1", facecolors=face or "C1", marker="s")
             ax.annotate(f"m={m}", (wall, 100 * err), textcoords="offset points", xytext=(4, 4))
         ax.axvline(float(exp.summary["wall_time_s"]), color="k", ls=":", label="fully explicit")
         ax.scatter([], [], color="C0", label="worst pair L2 error (%)")
         ax.scatter([], [], color="C1", marker="s", label="interface energy / external work (%)")
+        ax.scatter([], [], edgecolors="k", facecolors="k", label="gc (filled)")
+        ax.scatter([], [], edgecolors="k", facecolors="none", label="hybrid (hollow)")
+        ax.set_yscale("log")
         ax.set_xlabel("wall time (s)")
         ax.set_ylabel("%")
         ax.grid(alpha=0.3)
