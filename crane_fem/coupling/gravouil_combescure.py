@@ -724,21 +724,14 @@ class CoupledIntegrator:
         f0, f1 = I.load(t0), I.load(t1)
         du_free = I.trapezoid_free_increment(f0, f1)
         r_I = self.LI.apply(du_free)[:n_g]
-        state = E.save()
-        saved = (self.lam_prev.copy(), self.w_prev.copy(), self.impulse_E.copy())
-
-        def rewind() -> None:
-            E.restore(state)
-            self.lam_prev, self.w_prev = saved[0].copy(), saved[1].copy()
-            self.impulse_E = saved[2].copy()
-
+        start = self._snapshot()  # each pass starts from t0
         G = self.lam_macro_prev.copy()  # predictor: the previous macro step's G
         for k in range(self.ec_max_passes):
             if k:
-                rewind()
+                self._restore(start)
             lam, gaps, sums, micro, ld = self._ec_pass(t0, G)
             if fallback and any(a for _, a in micro):
-                rewind()
+                self._restore(start)
                 return None
             r = ld + r_I + 0.5 * dT * dT * (I.W @ G)
             scale = max(_amax(ld), _amax(r_I), 1e-300)
@@ -746,7 +739,7 @@ class CoupledIntegrator:
                 break
             if k == self.ec_max_passes - 1:
                 if fallback:
-                    rewind()
+                    self._restore(start)
                     return None
                 raise CraneFemError(
                     f"coupling method 'ec': the interface constraint of the macro step ending "
