@@ -136,6 +136,62 @@ def spectral_radius(m: int, variant: str, n: int = 6) -> float:
     return float(np.max(np.abs(np.linalg.eigvals(A))))
 
 
+def hughes_growth(m: int, n: int = 6, steps: int = 2000) -> tuple[float, float]:
+    """Cross-check written independently of ``_macro_step``: THEORY.md §3 in Newmark
+    (acceleration) form for both sides — explicit CD as Newmark β = 0, γ = ½ with state
+    (U, V, A), implicit average acceleration — on two n-node chains, the implicit far end
+    clamped by a spring. Returns ρ of one macro step and the growth over ``steps`` macro
+    steps, along the dominant mode, of the energy of the GC proof (Hughes' energy method):
+    ½VᵀMV + ½UᵀKU − Δt²/8 AᵀMA (CD) plus ½VᵀMV + ½UᵀKU (average acceleration), positive
+    definite under the CFL condition. Growth > 1 means that some macro steps create
+    interface energy in that measure, whatever the initial state."""
+    KE, ME = _chain(n)
+    KI, MI = _chain(n)
+    KI[-1, -1] += 1.0  # far end held by a spring: no rigid mode
+    MEi = np.diag(1.0 / ME)
+    dt = 0.5 * 2.0 / np.sqrt(np.max(np.linalg.eigvalsh(KE / np.sqrt(np.outer(ME, ME)))))
+    dT = m * dt
+    Mt = np.diag(MI) + 0.25 * dT**2 * KI
+    LE, LI = np.eye(n)[-1], -np.eye(n)[0]
+    WE, WI = LE @ MEi @ LE, LI @ np.linalg.solve(Mt, LI)
+
+    def step(x: np.ndarray) -> np.ndarray:
+        uE, vE, aE, uI, vI, aI = np.split(x, 6)
+        up, vp = uI + dT * vI + 0.25 * dT**2 * aI, vI + 0.5 * dT * aI
+        af = np.linalg.solve(Mt, -KI @ up)
+        vf = vp + 0.5 * dT * af
+        lam = 0.0
+        for j in range(1, m + 1):
+            uE = uE + dt * vE + 0.5 * dt**2 * aE
+            a_free = MEi @ (-KE @ uE)
+            v_free = vE + 0.5 * dt * (aE + a_free)
+            s = j / m
+            lam = -(LE @ v_free + LI @ ((1 - s) * vI + s * vf)) / (
+                0.5 * dt * WE + s * 0.5 * dT * WI
+            )
+            aE = a_free + MEi @ LE * lam
+            vE = v_free + 0.5 * dt * MEi @ LE * lam
+        al = np.linalg.solve(Mt, LI * lam)
+        return np.concatenate(
+            [uE, vE, aE, up + 0.25 * dT**2 * (af + al), vf + 0.5 * dT * al, af + al]
+        )
+
+    A = np.column_stack([step(e) for e in np.eye(6 * n)])
+    w, vecs = np.linalg.eig(A)
+    k = int(np.argmax(np.abs(w)))
+    x = np.real(vecs[:, k])
+
+    def energy(x: np.ndarray) -> float:
+        uE, vE, aE, uI, vI, _ = np.split(x, 6)
+        e_e = 0.5 * vE @ (ME * vE) + 0.5 * uE @ KE @ uE - dt**2 / 8 * aE @ (ME * aE)
+        return float(e_e + 0.5 * vI @ (MI * vI) + 0.5 * uI @ KI @ uI)
+
+    e0 = energy(x)
+    for _ in range(steps):
+        x = A @ x
+    return float(np.abs(w[k])), energy(x) / e0
+
+
 def reflected(m: int, variant: str, width: float = 30.0) -> float:
     """Fraction of a right-travelling Gaussian pulse's energy left in the explicit chain after
     it has crossed into the implicit one (two chains of n = max(200, 7 width) nodes, free far
@@ -184,6 +240,11 @@ def main() -> int:
         runs = [long_run(m, method) for method in ("gc", "ec")]
         row += [f"{r[0]:.4g}" for r in runs] + [f"{r[1]:.3g}" for r in runs]
         print(f"| {m} | " + " | ".join(row) + " |")
+    print("\nCross-check in Newmark form (hughes_growth): m, ρ, energy of the GC proof after")
+    print("2000 macro steps along the dominant mode / its initial value")
+    for m in (1, 2, 3, 5, 10):
+        rho, growth = hughes_growth(m)
+        print(f"| {m} | {rho:.6f} | {growth:.3g} |")
     return 0
 
 
