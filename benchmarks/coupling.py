@@ -120,7 +120,7 @@ def main() -> None:
         )
     )
     peak_ref = np.max(mono.history["probe_u0"])
-    for method, mm in [(x, y) for x in ("gc", "ec") for y in (1, 2, 10, 100, 1000)]:
+    for method, mm in [(x, y) for x in ("gc", "ph", "ec") for y in (1, 2, 10, 100, 1000)]:
         res = run(
             bar(
                 model={"kind": "bar", "length": 1.0, "elements": 1000, "split": 0.4},
