@@ -519,6 +519,8 @@ def run_coupled(
         )
         if integ.method == "hybrid":  # macro steps of each kind
             summary["hybrid_steps"] = dict(integ.hybrid_steps)
+        if integ.method == "gc-mean":  # the interface energy against its closed form
+            summary["interface_identity_error"] = integ.mean_identity_error
         if integ.ec_passes:  # "ec": explicit passes per macro step, worst residual
             summary["ec_passes_mean"] = float(np.mean(integ.ec_passes))
             summary["ec_passes_max"] = int(np.max(integ.ec_passes))

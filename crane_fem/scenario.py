@@ -32,7 +32,7 @@ PositiveInt = Annotated[int, Field(gt=0)]
 Pair = Annotated[list[float], Field(min_length=2, max_length=2)]
 NonNegativePair = Annotated[list[NonNegativeFloat], Field(min_length=2, max_length=2)]
 Vector3 = Annotated[list[float], Field(min_length=3, max_length=3)]
-CoupledMethod = Literal["gc", "ph", "ec", "hybrid"]
+CoupledMethod = Literal["gc", "ph", "ec", "hybrid", "gc-mean"]
 #: The methods that couple an explicit and an implicit subdomain (docs/scenarios.md).
 COUPLED_METHODS: tuple[str, ...] = get_args(CoupledMethod)
 #: The [coupling] keys of method "hybrid" only (its integrator's keyword arguments).
@@ -437,7 +437,7 @@ class Scenario(_Section):
                 )
         if (
             cpl is not None
-            and cpl.method in ("ec", "hybrid")
+            and cpl.method in ("ec", "hybrid", "gc-mean")
             and (
                 self.newmark.beta,
                 self.newmark.gamma,

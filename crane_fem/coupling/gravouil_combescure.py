@@ -265,6 +265,9 @@ class CoupledIntegrator:
         self._watch: npt.NDArray[np.bool_] | None = None
         self._changed = False
         self.hybrid_steps = {"gc": 0, "gc_refined": 0, "ec": 0}
+        # "gc-mean": the largest gap (J) between the interface energy of a macro step booked
+        # from the energy balances and its closed form (docs/theory-notes.md §9).
+        self.mean_identity_error = 0.0
         self._cv_cache: tuple[FloatArray, FloatArray] | None = None
         self._setup_interface_solver()
 
@@ -467,18 +470,28 @@ class CoupledIntegrator:
         return link_i, phys_i
 
     def _micro(
-        self, j: int, t: float, wI0: FloatArray, wIf: FloatArray, imposed: FloatArray | None
+        self,
+        j: int,
+        t: float,
+        wI0: FloatArray,
+        wIf: FloatArray,
+        imposed: FloatArray | None,
+        operator_step: int | None = None,
     ) -> tuple[FloatArray, FloatArray, dict[str, float], FloatArray]:
-        """One explicit micro step; interface impulses solved (gc) or imposed (ph)."""
+        """One explicit micro step; interface impulses solved (gc) or imposed (ph).
+
+        The interface operator is W_E + 2kγ W_I with k = ``operator_step`` (j by default:
+        GC's H_j; m for "gc-mean", whose target wI0 = wIf is the implicit mean velocity)."""
         E = self.E
         assert E is not None
         n_g, m = self.n_gamma, self.m
+        k_op = j if operator_step is None else operator_step
         fr = E.free(t, E.dt, move=True)
         active = E.contacts.closed(fr["gaps"][n_g:])
         if self._watch is not None and not self._changed:
             self._changed = bool(np.any(active != self._watch))
         q = fr["q"].copy()
-        solver = self._solver_for(j) if n_g and imposed is None else None
+        solver = self._solver_for(k_op) if n_g and imposed is None else None
         if n_g and imposed is None:
             wI = (1.0 - j / m) * wI0 + (j / m) * wIf
             q[:n_g] = (fr["l_old"][:n_g] + fr["q"][:n_g]) + 2.0 * wI
@@ -500,7 +513,7 @@ class CoupledIntegrator:
         elif n_g and imposed is None:
             assert self.I is not None
             A = E.W.copy()
-            A[:n_g, :n_g] += 2.0 * j * self.I.gamma * self.I.W
+            A[:n_g, :n_g] += 2.0 * k_op * self.I.gamma * self.I.W
             lam = solve_mixed_lcp(A, q, n_g, active, solver)
         else:
             A = E.W
@@ -529,6 +542,9 @@ class CoupledIntegrator:
             return self._step_ec()
         if self.coupled and self.method == "hybrid":
             return self._step_hybrid()
+        if self.coupled and self.method == "gc-mean":
+            lam, gaps, micro, G = self._mean_macro(self.n * self.dT)
+            return self._ec_record(lam, gaps, micro, G)
         lam, gaps, micro = self._gc_macro(self.n * self.dT)
         self.n += 1
         return self._record(lam, gaps, micro)
@@ -596,6 +612,61 @@ class CoupledIntegrator:
             self.acc["interface_energy_gc"] -= gc_e_g + link_i
             self.acc["interface_work_physical"] -= phys_e_g + phys_i
         return lam, gaps, micro
+
+    # ------------------------------------------------------------------------------------
+    # "gc-mean": GC with the implicit side's mean velocity over the macro step as the
+    # explicit side's target and the total interface impulse paid to the implicit side
+    # (docs/theory-notes.md §9). Its interface energy is −½ Σ_{i<j} (Λ̂_i − Λ̂_j)ᵀ W_I
+    # (Λ̂_i − Λ̂_j) ≤ 0 at every macro step (zero for m = 1), contacts or not.
+    def _mean_macro(
+        self, t0: float
+    ) -> tuple[FloatArray, FloatArray, list[tuple[float, bool]], FloatArray]:
+        """The "gc-mean" step [t0, t0 + ΔT]: implicit free trapezoidal increment ΔU_free,
+        whose mean interface velocity a = L_I ΔU_free / ΔT is the target of every micro step,
+
+            L_E V_j + a + ½ m W_I Λ̂_j = 0     (with the explicit contacts, one mixed LCP),
+
+        then the implicit link increment ½ΔT M̃⁻¹ L_Iᵀ S for the total impulse S = Σ_j Λ̂_j
+        (a constant force S/ΔT in the trapezoidal rule). Books its energy terms; returns the
+        last multipliers, gaps, micro-step contact flags and S/ΔT (collective)."""
+        E, I = self.E, self.I  # noqa: E741
+        assert E is not None and I is not None and self.LI is not None
+        n_g, m, dT = self.n_gamma, self.m, self.dT
+        t1 = t0 + dT
+        uI0, vI0 = I.u.copy(), I.v.copy()
+        cv0 = self._damping_now()
+        f0, f1 = I.load(t0), I.load(t1)
+        du_free = I.trapezoid_free_increment(f0, f1)
+        a = self.LI.apply(du_free)[:n_g] / dT
+        sums = dict.fromkeys(LINK_TERMS, 0.0)
+        micro: list[tuple[float, bool]] = []
+        S = np.zeros(n_g)
+        sq = 0.0  # Σ_j Λ̂_jᵀ W_I Λ̂_j, for the dissipation identity
+        lam = gaps = np.zeros(0)
+        for j in range(1, m + 1):
+            tj = t0 + j * E.dt
+            lam, gaps, terms, _ = self._micro(j, tj, a, a, None, operator_step=m)
+            S += lam[:n_g]
+            sq += float(lam[:n_g] @ (I.W @ lam[:n_g]))
+            for k in sums:
+                sums[k] += terms[k]
+            micro.append((tj, bool(np.any(lam[n_g:] > 0.0))))
+        self.impulse_E += S
+        G = S / dT
+        du = du_free + 0.5 * dT * dT * (G @ I.X)
+        I.accept(uI0 + du, 2.0 * du / dT - vI0, I.a)
+        self.impulse_I += S
+        link_i, _ = self._implicit_balance(uI0, vI0, f0, f1, cv0, G)
+        link = self._explicit_balance(sums) + link_i
+        self.acc["interface_dissipated"] -= link
+        self.acc["interface_energy_gc"] -= link
+        self.acc["interface_work_physical"] -= link
+        # The interface energy booked from the two sides' energy identities against its
+        # closed form ½ (m Σ_j Λ̂_jᵀ W_I Λ̂_j − Sᵀ W_I S) = ½ Σ_{i<j} ‖Λ̂_i − Λ̂_j‖²_{W_I}.
+        closed_form = 0.5 * (m * sq - float(S @ (I.W @ S)))
+        self.mean_identity_error = max(self.mean_identity_error, abs(-link - closed_form))
+        self.lam_macro_prev = G
+        return lam, gaps, micro, G
 
     # ------------------------------------------------------------------------------------
     # "ec": multipliers constant over the macro step, continuity of the interface
