@@ -85,26 +85,27 @@ def main() -> int:
             f"{wt['explicit']:.1f} s: ratio explicit/heterogeneous "
             f"{cmp['wall_time_ratio_explicit_over_heterogeneous']:.2f}."
         )
-    # The same scene with the "hybrid" coupling (docs/theory-notes.md §8) against the same
-    # explicit run.
-    h_dir = out.parent / f"{out.name}_hybrid"
-    cmd = [exe, "run", args.scenario, "-o", str(h_dir), "--no-progress"]
-    subprocess.run([*cmd, "--set", "coupling.method='hybrid'"], check=True)
-    hyb = load_runs(h_dir)[0]
+    # The same scene with the "hybrid" and "gc-mean" couplings (docs/theory-notes.md §8, §9)
+    # against the same explicit run.
     exp = next(r for r in load_runs(out) if r.summary.get("method") == "monolithic")
-    hc = compare_runs(hyb, exp)
-    steps = hyb.summary["hybrid_steps"]
-    print(f"\nSame scene, coupling.method = 'hybrid' ({h_dir.name}/): macro steps {steps}.\n")
-    print("| " + " | ".join([*cols[:3], *cols[4:]]) + " |")
-    print("|---|---|---|---|---|")
-    for k, w in hc["wheels"].items():
-        print(_row(k, w, []))
-    print(
-        f"\nInterface energy: max |E_Γ| = {hc['interface_dissipated_max_abs_J']:.3e} J = "
-        f"{100 * hc['interface_dissipated_over_external_work']:.3f} % of max |external work|; "
-        f"wall time {hyb.summary['wall_time_s']:.1f} s: ratio explicit/hybrid "
-        f"{hc['wall_time_ratio_explicit_over_heterogeneous']:.2f}."
-    )
+    for method in ("hybrid", "gc-mean"):
+        h_dir = out.parent / f"{out.name}_{method.replace('-', '_')}"
+        cmd = [exe, "run", args.scenario, "-o", str(h_dir), "--no-progress"]
+        subprocess.run([*cmd, "--set", f"coupling.method='{method}'"], check=True)
+        hyb = load_runs(h_dir)[0]
+        hc = compare_runs(hyb, exp)
+        steps = hyb.summary.get("hybrid_steps", "")
+        print(f"\nSame scene, coupling.method = '{method}' ({h_dir.name}/) {steps}.\n")
+        print("| " + " | ".join([*cols[:3], *cols[4:]]) + " |")
+        print("|---|---|---|---|---|")
+        for k, w in hc["wheels"].items():
+            print(_row(k, w, []))
+        print(
+            f"\nInterface energy: max |E_Γ| = {hc['interface_dissipated_max_abs_J']:.3e} J = "
+            f"{100 * hc['interface_dissipated_over_external_work']:.3f} % of max |external "
+            f"work|; wall time {hyb.summary['wall_time_s']:.1f} s: ratio explicit/{method} "
+            f"{hc['wall_time_ratio_explicit_over_heterogeneous']:.2f}."
+        )
     return 0
 
 
