@@ -251,6 +251,25 @@ def hughes_growth(m: int, n: int = 6, steps: int = 2000) -> tuple[float, float]:
     return float(np.abs(w[k])), energy(x) / e0
 
 
+def pulse_balance(m: int, variant: str, width: float = 30.0) -> tuple[float, float]:
+    """(explicit, implicit) physical energy / E0 after a Gaussian pulse has crossed from the
+    explicit chain into the implicit one (as ``reflected``; implicit ½VᵀMV + ½UᵀKU)."""
+    n = max(200, int(7 * width))
+    step, dt, KB, MB = _macro_step(m, variant, n, clamp=False)
+    KA, MA = _chain(n)
+    x = np.arange(n)
+    uB = 0.01 * np.exp(-(((x - n / 2) / width) ** 2))
+    vh = -np.gradient(uB) - 0.5 * dt * (KB @ uB) / MB
+    e0 = float(0.5 * vh @ (MB * vh) + 0.5 * uB @ KB @ uB)
+    state = np.concatenate([uB, vh, np.zeros(3 * n + 1)])
+    for _ in range(int(1.5 * n / (m * dt))):
+        state = step(state)
+    uB, vh, uA, vA = np.split(state[: 4 * n], 4)
+    e_b = float(0.5 * vh @ (MB * vh) + 0.5 * uB @ KB @ uB)
+    e_a = float(0.5 * vA @ (MA * vA) + 0.5 * uA @ KA @ uA)
+    return e_b / e0, e_a / e0
+
+
 def reflected(m: int, variant: str, width: float = 30.0) -> float:
     """Fraction of a right-travelling Gaussian pulse's energy left in the explicit chain after
     it has crossed into the implicit one (two chains of n = max(200, 7 width) nodes, free far
@@ -300,6 +319,21 @@ def main() -> int:
         runs = [long_run(m, method) for method in ("gc", "ec", "gc-mean")]
         row += [f"{r[0]:.4g}" for r in runs] + [f"{r[1]:.3g}" for r in runs]
         print(f"| {m} | " + " | ".join(row) + " |")
+    print("\nPH (THEORY.md §3, the package's 'ph'): nonzero |eigenvalues| of one macro step,")
+    print("chains of n nodes: m, n, max, min")
+    for m in (2, 10, 100):
+        for n in (6, 30):
+            step, _, _, _ = _macro_step(m, "ph", n, clamp=True)
+            A = np.column_stack([step(e) for e in np.eye(5 * n + 1)])
+            ev = np.abs(np.linalg.eigvals(A))
+            ev = ev[ev > 1e-6]
+            print(f"| {m} | {n} | {ev.max():.12f} | {ev.min():.12f} |")
+    print("\nPulse of 30 elements crossing (physical energies / E0): m, method, explicit side")
+    print("after, implicit side after")
+    for m in (2, 10, 30, 100):
+        for v in ("jm", "ph", "mean"):
+            e_b, e_a = pulse_balance(m, v)
+            print(f"| {m} | {v} | {e_b:.3g} | {e_a:.4f} |")
     print("\ngc-mean with the free implicit velocity interpolated instead of its mean: m, ρ")
     for m in (1, 2, 3, 5, 10, 100):
         print(f"| {m} | {spectral_radius(m, 'interp'):.6f} |")
