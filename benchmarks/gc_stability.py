@@ -117,6 +117,16 @@ def _macro_step(
         du = du_free + 0.5 * dT * (Mti @ (LA * S))
         return np.concatenate([uB, vh, uA + du, 2 * du / dT - vA, aA, [S / dT]])
 
+    def implicit_free(uA: np.ndarray, vA: np.ndarray, aA: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Newmark predictor–solve of the implicit chain without link force: (U, V, A)."""
+        ut = uA + dT * vA + dT**2 * (0.5 - beta) * aA
+        vt = vA + dT * (1 - gamma) * aA
+        r = -KA @ ut
+        if clamp:
+            r[-1] = 0.0
+        af = Mti @ r
+        return ut + beta * dT**2 * af, vt + gamma * dT * af, af
+
     def ph_pass(uB: np.ndarray, vh: np.ndarray, l0: float, l1: float) -> tuple[np.ndarray, ...]:
         """m CD steps under the impulses Δt((1 − j/m) l0 + (j/m) l1); (U_m, V_m+½, L_B V_m)."""
         w = 0.0
@@ -134,13 +144,7 @@ def _macro_step(
         step on the explicit side, velocity continuity at the macro step only, the implicit
         side (acceleration form) corrected with the end multiplier."""
         uB, vh, uA, vA, aA, lam_a = np.split(x, [n, 2 * n, 3 * n, 4 * n, 5 * n])
-        ut = uA + dT * vA + dT**2 * (0.5 - beta) * aA
-        vt = vA + dT * (1 - gamma) * aA
-        r = -KA @ ut
-        if clamp:
-            r[-1] = 0.0
-        af = Mti @ r
-        uf, vf = ut + beta * dT**2 * af, vt + gamma * dT * af
+        uf, vf, af = implicit_free(uA, vA, aA)
         w_free = ph_pass(uB, vh, lam_a[0], 0.0)[2]
         z = ph_pass(np.zeros(n), np.zeros(n), 0.0, 1.0)[2]  # linear: response to a unit ramp
         lam_b = -(w_free + LA @ vf) / (z + gamma * dT * WA)
@@ -158,13 +162,7 @@ def _macro_step(
         if variant in ("mean", "interp"):
             return step_mean(x)
         uB, vh, uA, vA, aA, lam_a = np.split(x, [n, 2 * n, 3 * n, 4 * n, 5 * n])
-        ut = uA + dT * vA + dT**2 * (0.5 - beta) * aA
-        vt = vA + dT * (1 - gamma) * aA
-        r = -KA @ ut
-        if clamp:
-            r[-1] = 0.0
-        af = Mti @ r
-        uf, vf = ut + beta * dT**2 * af, vt + gamma * dT * af
+        uf, vf, af = implicit_free(uA, vA, aA)
         w0, wf = LA @ vA, LA @ vf
         c = 0.5 * (w0 + wf - (1 - gamma) * dT * WA * lam_a[0])
         lam, S = 0.0, 0.0
