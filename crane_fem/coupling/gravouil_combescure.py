@@ -1,7 +1,9 @@
 """Heterogeneous asynchronous coupling: explicit CD-Lagrange (Δt) + implicit Newmark (ΔT = mΔt).
 
 THEORY.md §3 (Gravouil–Combescure, "gc") and the Prakash–Hjelmstad variant ("ph"); see
-docs/theory-notes.md §5 for the derivation of the impulse form used here.
+docs/theory-notes.md §5 for the derivation of the impulse form used here. Also "ec" (§7),
+"hybrid" (§8) and "gc-mean" (§9: the mean implicit velocity as the micro-step target, interface
+energy a sum of squares).
 
 Explicit side (velocity-Verlet CD, half-step velocities V_{j±1/2}); its interface velocity at
 t_j is V_j = ½ (V_{j−1/2} + V_{j+1/2}), so an interface impulse Λ̂_j = Δt Λ_j applied to
@@ -207,7 +209,9 @@ class CoupledIntegrator:
         method: "gc" (THEORY.md §3: j/m-weighted interface operators H_j; weakly unstable
             over long undamped runs, docs/theory-notes.md §6), "ph", or "ec" (multipliers
             constant over the macro step, interface displacement increments continuous: no
-            interface energy, docs/theory-notes.md §7; average-acceleration Newmark only).
+            interface energy, docs/theory-notes.md §7; average-acceleration Newmark only),
+            "hybrid" (§8) or "gc-mean" (§9: GC against the implicit mean velocity, the
+            implicit side paid the total impulse; interface energy ≥ 0 every macro step).
         l_implicit: the implicit side's interface rows (L_I).
     """
 
