@@ -186,6 +186,18 @@ class _Snapshot:
     energies: tuple[float, float, float, float]
 
 
+@dataclass
+class _TrapezoidStep:
+    """The implicit side at the start of a trapezoidal macro step and its free increment."""
+
+    u0: FloatArray
+    v0: FloatArray
+    cv0: FloatArray
+    f0: FloatArray
+    f1: FloatArray
+    du_free: FloatArray
+
+
 def _amax(x: FloatArray) -> float:
     return float(np.max(np.abs(x), initial=0.0))
 
@@ -618,6 +630,40 @@ class CoupledIntegrator:
         return lam, gaps, micro
 
     # ------------------------------------------------------------------------------------
+    # The implicit side in the displacement–velocity form of the trapezoidal rule ("ec",
+    # "gc-mean"): a free increment at the start of the macro step, the link increment of a
+    # force G constant over it at the end.
+    def _trapezoid_start(self, t0: float) -> _TrapezoidStep:
+        """The implicit state at t0 and its free trapezoidal increment to t0 + ΔT."""
+        I = self.I  # noqa: E741
+        assert I is not None
+        f0, f1 = I.load(t0), I.load(t0 + self.dT)
+        return _TrapezoidStep(
+            I.u.copy(), I.v.copy(), self._damping_now(), f0, f1, I.trapezoid_free_increment(f0, f1)
+        )
+
+    def _trapezoid_finish(
+        self, st: _TrapezoidStep, G: FloatArray, impulse: FloatArray, sums: dict[str, float]
+    ) -> float:
+        """Implicit side: ΔU = ΔU_free + ½ΔT² M̃⁻¹ L_Iᵀ G, V_n+1 = 2ΔU/ΔT − V_n; it receives
+        ``impulse`` = ΔT G (as the explicit side summed it, so that the two agree to the last
+        bit). Books both sides' terms (the explicit ones summed in ``sums``) and
+        the interface energy; returns the link work of G on both sides (collective)."""
+        I, dT = self.I, self.dT  # noqa: E741
+        assert I is not None
+        du = st.du_free + 0.5 * dT * dT * (G @ I.X)
+        I.accept(st.u0 + du, 2.0 * du / dT - st.v0, I.a)
+        self.impulse_I += impulse
+        # V̄ = ½(V_0 + V_1) = ΔU/ΔT here, so both link-work forms are Gᵀ L_I ΔU.
+        link_i, _ = self._implicit_balance(st.u0, st.v0, st.f0, st.f1, st.cv0, G)
+        link = self._explicit_balance(sums) + link_i
+        self.acc["interface_dissipated"] -= link
+        self.acc["interface_energy_gc"] -= link
+        self.acc["interface_work_physical"] -= link
+        self.lam_macro_prev = G.copy()
+        return link
+
+    # ------------------------------------------------------------------------------------
     # "gc-mean": GC with the implicit side's mean velocity over the macro step as the
     # explicit side's target and the total interface impulse paid to the implicit side
     # (docs/theory-notes.md §9). Its interface energy is −½ Σ_{i<j} (Λ̂_i − Λ̂_j)ᵀ W_I
@@ -636,12 +682,8 @@ class CoupledIntegrator:
         E, I = self.E, self.I  # noqa: E741
         assert E is not None and I is not None and self.LI is not None
         n_g, m, dT = self.n_gamma, self.m, self.dT
-        t1 = t0 + dT
-        uI0, vI0 = I.u.copy(), I.v.copy()
-        cv0 = self._damping_now()
-        f0, f1 = I.load(t0), I.load(t1)
-        du_free = I.trapezoid_free_increment(f0, f1)
-        a = self.LI.apply(du_free)[:n_g] / dT
+        st = self._trapezoid_start(t0)
+        a = self.LI.apply(st.du_free)[:n_g] / dT
         sums = dict.fromkeys(LINK_TERMS, 0.0)
         micro: list[tuple[float, bool]] = []
         impulses = np.empty((m, n_g))  # Λ̂_j, for the dissipation identity
@@ -656,20 +698,12 @@ class CoupledIntegrator:
         S = impulses.sum(axis=0)
         self.impulse_E += S
         G = S / dT
-        du = du_free + 0.5 * dT * dT * (G @ I.X)
-        I.accept(uI0 + du, 2.0 * du / dT - vI0, I.a)
-        self.impulse_I += S
-        link_i, _ = self._implicit_balance(uI0, vI0, f0, f1, cv0, G)
-        link = self._explicit_balance(sums) + link_i
-        self.acc["interface_dissipated"] -= link
-        self.acc["interface_energy_gc"] -= link
-        self.acc["interface_work_physical"] -= link
+        link = self._trapezoid_finish(st, G, S, sums)
         # The interface energy booked from the two sides' energy identities against its
         # closed form ½ (m Σ_j Λ̂_jᵀ W_I Λ̂_j − Sᵀ W_I S) = ½ Σ_{i<j} ‖Λ̂_i − Λ̂_j‖²_{W_I}.
         sq = float(np.einsum("ij,ij->", impulses @ I.W, impulses))  # Σ_j Λ̂_jᵀ W_I Λ̂_j
         closed_form = 0.5 * (m * sq - float(S @ (I.W @ S)))
         self.mean_identity_error = max(self.mean_identity_error, abs(-link - closed_form))
-        self.lam_macro_prev = G
         return lam, gaps, micro, G
 
     # ------------------------------------------------------------------------------------
@@ -794,11 +828,8 @@ class CoupledIntegrator:
         # Newton direction from the explicit compliance with the contacts as they are at the
         # start of the step (closed ones held as bilateral constraints).
         factor = self._ec_factor(closed)
-        uI0, vI0 = I.u.copy(), I.v.copy()
-        cv0 = self._damping_now()
-        f0, f1 = I.load(t0), I.load(t1)
-        du_free = I.trapezoid_free_increment(f0, f1)
-        r_I = self.LI.apply(du_free)[:n_g]
+        st = self._trapezoid_start(t0)
+        r_I = self.LI.apply(st.du_free)[:n_g]
         start = self._snapshot()  # each pass starts from t0
         G = self.lam_macro_prev.copy()  # predictor: the previous macro step's G
         for k in range(self.ec_max_passes):
@@ -826,17 +857,7 @@ class CoupledIntegrator:
             G = G - scipy.linalg.cho_solve(factor, r)
         self.ec_passes.append(k + 1)
         self.ec_residual = max(self.ec_residual, _amax(r) / scale)
-        # Implicit side: ΔU = ΔU_free + ½ΔT² M̃⁻¹ L_Iᵀ G, V_n+1 = 2ΔU/ΔT − V_n.
-        du = du_free + 0.5 * dT * dT * (G @ I.X)
-        I.accept(uI0 + du, 2.0 * du / dT - vI0, I.a)
-        self.impulse_I += dT * G
-        # V̄ = ½(V_0 + V_1) = ΔU/ΔT here, so both link-work forms are Gᵀ L_I ΔU.
-        link_i, _ = self._implicit_balance(uI0, vI0, f0, f1, cv0, G)
-        link = self._explicit_balance(sums) + link_i  # work of G on both sides: Gᵀ r
-        self.acc["interface_dissipated"] -= link
-        self.acc["interface_energy_gc"] -= link
-        self.acc["interface_work_physical"] -= link
-        self.lam_macro_prev = G.copy()
+        self._trapezoid_finish(st, G, dT * G, sums)  # the work of G on both sides: Gᵀ r
         return lam, gaps, micro, G
 
     # ------------------------------------------------------------------------------------

@@ -153,22 +153,20 @@ class Newmark:
     def stiffness_action(self, x: FloatArray) -> FloatArray:
         return self._apply("K", x)
 
-    def damping_action(self, x: FloatArray) -> FloatArray:
+    def damping_action(self, x: FloatArray, mx: FloatArray | None = None) -> FloatArray:
+        """C x with C = αM + β_R K; ``mx``: M x when already computed (collective)."""
         m = self.model
         out = np.zeros_like(x)
         if m.alpha:
-            out += m.alpha * self.mass_action(x)
+            out += m.alpha * (self.mass_action(x) if mx is None else mx)
         if m.beta:
             out += m.beta * self.stiffness_action(x)
         return out
 
     def mass_and_damping(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """(M x, C x) with one mass product (C = αM + β_R K)."""
+        """(M x, C x) with one mass product (collective)."""
         mx = self.mass_action(x)
-        cx = self.model.alpha * mx
-        if self.model.beta:
-            cx += self.model.beta * self.stiffness_action(x)
-        return mx, cx
+        return mx, self.damping_action(x, mx)
 
     def initialize(self, t0: float, link: FloatArray | None = None) -> None:
         """A_0 from M A_0 = F_0 − K U_0 − C V_0 (+ link force) (collective)."""
