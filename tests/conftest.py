@@ -58,6 +58,14 @@ def run(sc: Scenario, outdir: Path) -> RunResult:
     return run_scenario(sc, outdir, COMM, progress=False)
 
 
+def mpiexec_env() -> dict[str, str]:
+    """The environment of a spawned `mpiexec -n 2`: one BLAS/OpenMP thread per rank. Two
+    ranks of two-threaded BLAS on two cores oversubscribe them, and the threaded reductions
+    then differ from run to run at round-off (two identical runs: up to 1e-11 relative);
+    with one thread per rank the parallel run is reproducible to the bit."""
+    return {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Tests marked ``serial`` launch their own MPI jobs: run them only in the serial pass."""
     if COMM.size == 1:

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import make_scenario, run
+from conftest import make_scenario, mpiexec_env, run
 
 from crane_fem.errors import CraneFemError, ScenarioError
 from crane_fem.scenario import load_scenario
@@ -487,7 +487,10 @@ def test_coupled_mpiexec_two_ranks_same_histories(tmp_path, case) -> None:
         base += ["--set", f"coupling.method='{method}'"]
     subprocess.run([*base, "-o", str(tmp_path / "s")], check=True, capture_output=True)
     subprocess.run(
-        [str(mpiexec), "-n", "2", *base, "-o", str(tmp_path / "p")], check=True, capture_output=True
+        [str(mpiexec), "-n", "2", *base, "-o", str(tmp_path / "p")],
+        check=True,
+        capture_output=True,
+        env=mpiexec_env(),
     )
     h1, h2 = read_history(tmp_path / "s/history.csv"), read_history(tmp_path / "p/history.csv")
     assert json.loads((tmp_path / "p/summary.json").read_text())["mpi_size"] == 2

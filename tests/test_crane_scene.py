@@ -11,7 +11,7 @@ import meshio
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import COMM
+from conftest import COMM, mpiexec_env
 
 from crane_fem.cli import main
 from crane_fem.compare import compare_runs, first_landing, lift_off_episodes, pair_l2
@@ -222,7 +222,10 @@ def test_quick_scene_mpiexec_same_histories(tmp_path, method) -> None:
     serial, par = tmp_path / "serial", tmp_path / "mpi"
     subprocess.run([*base, "-o", str(serial)], check=True, capture_output=True)
     subprocess.run(
-        [str(mpiexec), "-n", "2", *base, "-o", str(par)], check=True, capture_output=True
+        [str(mpiexec), "-n", "2", *base, "-o", str(par)],
+        check=True,
+        capture_output=True,
+        env=mpiexec_env(),
     )
     s2 = json.loads((par / "summary.json").read_text())
     assert s2["mpi_size"] == 2
