@@ -303,7 +303,7 @@ def run_coupled(
     Collective over ``comm``.
     """
     from crane_fem.coupled import CoupledSimulation
-    from crane_fem.coupling.gravouil_combescure import ENERGY_KEYS
+    from crane_fem.coupling.gravouil_combescure import ENERGY_KEYS, PH_KEYS
 
     comm = MPI.COMM_WORLD if comm is None else comm
     out = Path(outdir)
@@ -316,6 +316,7 @@ def run_coupled(
     columns = [
         "t",
         *ENERGY_KEYS,
+        *(PH_KEYS if integ.ph_measure == "evaluated" else []),
         "total",
         "kinetic_explicit",
         "internal_explicit",
@@ -521,6 +522,10 @@ def run_coupled(
             summary["hybrid_steps"] = dict(integ.hybrid_steps)
         if integ.method == "gc-mean":  # the interface energy against its closed form
             summary["interface_identity_error"] = integ.mean_identity_error
+        if integ.method == "ph":  # the measure of the PH argument, or why it is absent
+            summary["ph_measure"] = integ.ph_measure
+            if integ.ph_storage is not None:
+                summary["ph_kappa_min"], summary["ph_kappa_max"] = integ.ph_storage.kappa_range
         if integ.ec_passes:  # "ec": explicit passes per macro step, worst residual
             summary["ec_passes_mean"] = float(np.mean(integ.ec_passes))
             summary["ec_passes_max"] = int(np.max(integ.ec_passes))

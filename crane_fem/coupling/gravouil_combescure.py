@@ -30,6 +30,7 @@ import numpy.typing as npt
 import scipy.linalg
 
 from crane_fem.contact import ContactSet, solve_mixed_lcp, solve_mixed_lcp_blocks
+from crane_fem.coupling.ph_energy import PHStorage
 from crane_fem.energy import BALANCE_TERMS
 from crane_fem.errors import CraneFemError
 from crane_fem.integrators.newmark import Newmark
@@ -208,6 +209,9 @@ ENERGY_KEYS = [
     "interface_energy_gc",
     "interface_work_physical",
 ]
+#: "ph" with an undamped explicit side: the interface energy in the measure of the PH
+#: argument (S_E + the implicit side's energy, crane_fem.coupling.ph_energy) and S_E itself.
+PH_KEYS = ["interface_energy_ph", "energy_ph_explicit"]
 
 
 class CoupledIntegrator:
@@ -286,6 +290,23 @@ class CoupledIntegrator:
         self.mean_identity_error = 0.0
         self._cv_cache: tuple[FloatArray, FloatArray] | None = None
         self._setup_interface_solver()
+        # "ph": the explicit side's storage S_E (docs/theory-notes.md §10) when it is
+        # defined (undamped explicit side, small enough for its modes), else the reason.
+        self.ph_storage: PHStorage | None = None
+        self.ph_measure = "not ph"
+        self._ph_prev: tuple[float, FloatArray, FloatArray] | None = None
+        if self.coupled and method == "ph":
+            assert explicit is not None
+            if explicit.model.damped:
+                self.ph_measure = "not evaluated: the explicit side is damped (not lossless)"
+            else:
+                try:
+                    self.ph_storage = PHStorage(explicit.model, self.dt, self.m)
+                    self.ph_measure = "evaluated"
+                except ValueError as exc:
+                    self.ph_measure = f"not evaluated: {exc}"
+            if self.ph_storage is not None:
+                self.acc.update(dict.fromkeys(PH_KEYS, 0.0))
 
     def _setup_interface_solver(self) -> None:
         """Diagonalise the micro-step interface operators once.
@@ -382,6 +403,9 @@ class CoupledIntegrator:
             self.w_prev = E.stack.apply(E.v0)[: self.n_gamma]
             self.lam_prev = E.dt * lam0
             self.lam_macro_prev = lam0.copy()
+            if self.ph_storage is not None:
+                self._ph_prev = self._ph_state(0.0, lam0)
+                self.acc["energy_ph_explicit"] = self._ph_prev[0]
         # The first impulses act over Δt/2: as forces, 2 Λ̂ / Δt.
         return self._record(2.0 * lam, gaps, [])
 
@@ -623,11 +647,37 @@ class CoupledIntegrator:
             mean_force = 0.5 * (self.lam_macro_prev + lam_force) if self.coupled else None
             link_i, phys_i = self._implicit_balance(uI0, vI0, f0, I.load(t1), cv0, mean_force)
             self.lam_macro_prev = lam_force
+            if self.ph_storage is not None:
+                self._ph_book(t1, lam_force, link_i)
         if self.coupled:
             self.acc["interface_dissipated"] -= link_e + link_i
             self.acc["interface_energy_gc"] -= gc_e_g + link_i
             self.acc["interface_work_physical"] -= phys_e_g + phys_i
         return lam, gaps, micro
+
+    def _ph_state(self, t: float, lam_force: FloatArray) -> tuple[float, FloatArray, FloatArray]:
+        """(S_E, V_E, F_E) at the macro time t: the storage of the explicit side for its
+        integer-step velocity and total force (link force Λ plus the load), then the two
+        vectors for the next trapezoidal supply (collective)."""
+        E = self.E
+        assert E is not None and self.ph_storage is not None
+        full = np.zeros(E.stack.p)
+        full[: self.n_gamma] = lam_force
+        load = E.load(t)
+        force = E.stack.transpose(full, E.model.n_owned) + load
+        return self.ph_storage(E.u, E.v_int, force), E.v_int.copy(), load.copy()
+
+    def _ph_book(self, t1: float, lam_force: FloatArray, link_i: float) -> None:
+        """Book the interface energy of a "ph" macro step in the measure of its argument:
+        −(ΔS_E − W_E + link work on the implicit side), W_E the load's trapezoidal supply
+        ΔT·½(V_n + V_n+1)ᵀ·½(F_n + F_n+1) on the explicit side (collective)."""
+        assert self._ph_prev is not None
+        s0, v0, f0 = self._ph_prev
+        self._ph_prev = self._ph_state(t1, lam_force)
+        s1, v1, f1 = self._ph_prev
+        w_ext = float(self._sum([0.25 * self.dT * float(np.dot(v0 + v1, f0 + f1))])[0])
+        self.acc["interface_energy_ph"] -= (s1 - s0 - w_ext) + link_i
+        self.acc["energy_ph_explicit"] = s1
 
     # ------------------------------------------------------------------------------------
     # The implicit side in the displacement–velocity form of the trapezoidal rule ("ec",
