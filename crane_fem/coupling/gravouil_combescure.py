@@ -1,7 +1,8 @@
 """Heterogeneous asynchronous coupling: explicit CD-Lagrange (Δt) + implicit Newmark (ΔT = mΔt).
 
-THEORY.md §3 (Gravouil–Combescure, "gc") and the Prakash–Hjelmstad variant ("ph"); see
-docs/theory-notes.md §5 for the derivation of the impulse form used here. Also "ec" (§7),
+THEORY.md §3 (Gravouil–Combescure, "gc") and the Prakash–Hjelmstad variant ("ph", its energy
+measure in crane_fem.coupling.ph_energy, §10); see docs/theory-notes.md §5 for the derivation
+of the impulse form used here. Also "ec" (§7),
 "hybrid" (§8) and "gc-mean" (§9: the mean implicit velocity as the micro-step target, interface
 energy a sum of squares).
 
