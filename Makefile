@@ -26,8 +26,9 @@ lint: $(BIN)/.installed
 test-serial: $(BIN)/.installed
 	$(BIN)/python -m pytest -q tests
 
+# One BLAS/OpenMP thread per rank: NP ranks of threaded BLAS oversubscribe the cores.
 test-mpi: $(BIN)/.installed
-	$(BIN)/mpiexec -n $(NP) $(BIN)/python -m pytest -q tests
+	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(BIN)/mpiexec -n $(NP) $(BIN)/python -m pytest -q tests
 
 test: lint test-serial test-mpi
 
