@@ -38,8 +38,8 @@ __all__ = ["PH_MEASURE_MAX_DOFS", "PHStorage", "mode_coefficients", "refined_eig
 FloatArray = npt.NDArray[np.float64]
 
 #: Largest explicit subdomain (global DOFs) for which the PH measure is evaluated (the
-#: extended-precision refinement is O(n³) without BLAS: 0.1 s for 161 DOFs, ~25 s for 1000).
-PH_MEASURE_MAX_DOFS = 1500
+#: extended-precision refinement is O(n³) without BLAS: 0.1 s for 161 DOFs, 16 s for 800).
+PH_MEASURE_MAX_DOFS = 1000
 #: Largest mode weight κ accepted: past it the float64 state's round-off, weighted by κ,
 #: is no longer small against S_E (an explicit mode completes a whole number of periods
 #: per macro step, where the measure is singular).
