@@ -411,6 +411,22 @@ def test_ph_measure_singular_at_a_whole_number_of_periods(shared_tmp) -> None:
     assert "interface_energy_ph" not in res.history
 
 
+@pytest.mark.parametrize(
+    ("extra", "reason"),
+    [
+        ({"material": {"rayleigh": [0.5, 0.0]}}, "the explicit side is damped"),
+        ({"model": {"elements": 3000, "split": 0.4}}, "1201 DOFs is above its limit of 1000"),
+    ],
+)
+def test_ph_measure_not_evaluated_outside_its_scope(shared_tmp, extra, reason) -> None:
+    """A damped explicit side is not lossless, and the measure needs the explicit modes (a
+    dense eigendecomposition): the run goes on without the PH columns and says why."""
+    kw = {"time": {"end": 0.01, "dt_factor": 0.5}, **extra}
+    res = run(coupled(5, method="ph", **kw), shared_tmp)
+    assert reason in res.summary["ph_measure"]
+    assert "interface_energy_ph" not in res.history
+
+
 BAD = [
     ({"coupling": {"method": "gc", "ratio": 2.5}}, "coupling.ratio"),
     (
