@@ -56,7 +56,7 @@ def mode_coefficients(
     c_xx = κω²cos²(θ/2), c_xf = c_xx a, c_ff = c_xx a², written without a (a is unbounded
     where κ vanishes). Needs ω Δt < 2 (the explicit step below its critical value)."""
     w2 = np.asarray(omega2, dtype=np.float64)
-    rigid = w2 <= RIGID_TOL * max(float(np.max(w2, initial=0.0)), 0.0)
+    rigid = w2 <= RIGID_TOL * float(np.max(w2, initial=0.0))
     w2s = np.where(rigid, 1.0, w2)
     s = np.sqrt(w2s) * dt / 2.0
     if np.any(s[~rigid] >= 1.0):
@@ -89,7 +89,7 @@ def refined_eigh(A: FloatArray, steps: int = 2) -> tuple[FloatArray, FloatArray]
     A_x = np.asarray(A, dtype=np.longdouble)
     X = Q.astype(np.longdouble)
     n = w.size
-    lam = w.astype(np.longdouble)
+    lam = w.astype(np.longdouble)  # returned as is when steps = 0
     cluster_tol = 1e-8 * max(float(np.max(np.abs(w), initial=0.0)), 1e-300)
     for _ in range(steps):
         R = np.eye(n, dtype=np.longdouble) - X.T @ X
