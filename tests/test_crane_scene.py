@@ -37,12 +37,17 @@ def _run(out: Path, *overrides: str) -> dict:
 def _assert_same_histories(h1: dict, h2: dict, rtol: float) -> None:
     """Two crane histories equal to ``rtol``: energies are parts of one balance, compared to
     its scale; gaps to the displacements, the interface velocity jump (round-off itself) to
-    the velocities; the rest to its own largest value."""
+    the velocities; each component of the probe's displacement or velocity to that vector's
+    largest component (the probe moves vertically: its transverse velocity peaks at 0.5 % of
+    the vertical one, and the parallel run, whose distributed MUMPS solves sum in an order
+    that changes from run to run, differs from one run to the next by 5e-12 m/s there —
+    1e-8 of that component's own peak); the rest to its own largest value."""
     assert h1.keys() == h2.keys()
     energy = {c for c in h1 if c in ENERGIES or c.startswith(("kinetic", "internal"))}
     e_scale = np.max(np.abs(h1["total"])) + np.max(np.abs(h1["external_work"]))
     v_scale = max(np.max(np.abs(h1[f"wheel{k}_wheel_vz"])) for k in range(1, 5))
     u_scale = max(np.max(np.abs(h1[f"wheel{k}_wheel_uz"])) for k in range(1, 5))
+    probe = {q: max(np.max(np.abs(h1[c])) for c in h1 if c.startswith(f"probe_{q}")) for q in "uv"}
     for col in h1:
         if col in energy:
             scale = e_scale
@@ -50,6 +55,8 @@ def _assert_same_histories(h1: dict, h2: dict, rtol: float) -> None:
             scale = u_scale
         elif col == "interface_velocity_jump":
             scale = v_scale
+        elif col.startswith("probe_"):
+            scale = probe[col[6]]
         else:
             scale = max(np.max(np.abs(h1[col])), 1e-300)
         assert np.max(np.abs(h1[col] - h2[col])) <= rtol * scale, col
@@ -241,7 +248,9 @@ def test_quick_scene_mpiexec_same_histories(tmp_path, method) -> None:
     base = [str(exe), "run", str(QUICK), "--set", "output.xdmf=false", "--set", "time.end=0.03"]
     base += ["--set", f"coupling.method='{method}'"]
     serial, par = tmp_path / "serial", tmp_path / "mpi"
-    subprocess.run([*base, "-o", str(serial)], check=True, capture_output=True)
+    # One BLAS/OpenMP thread in both runs (mpiexec_env): threaded kernels sum in an order
+    # that may change from run to run, and the serial run is then not reproducible to the bit.
+    subprocess.run([*base, "-o", str(serial)], check=True, capture_output=True, env=mpiexec_env())
     subprocess.run(
         [str(mpiexec), "-n", "2", *base, "-o", str(par)],
         check=True,
