@@ -316,7 +316,7 @@ def run_coupled(
     columns = [
         "t",
         *ENERGY_KEYS,
-        *(PH_KEYS if integ.ph_measure == "evaluated" else []),
+        *(PH_KEYS if integ.ph_storage is not None else []),
         "total",
         "kinetic_explicit",
         "internal_explicit",

@@ -61,8 +61,10 @@ def run(sc: Scenario, outdir: Path) -> RunResult:
 def mpiexec_env() -> dict[str, str]:
     """The environment of a spawned `mpiexec -n 2`: one BLAS/OpenMP thread per rank. Two
     ranks of two-threaded BLAS on two cores oversubscribe them, and the threaded reductions
-    then differ from run to run at round-off (two identical runs: up to 1e-11 relative);
-    with one thread per rank the parallel run is reproducible to the bit."""
+    then differ from run to run at round-off (two identical runs: up to 1e-11 relative).
+    With one thread per rank a serial run is reproducible to the bit; a parallel one still
+    varies at round-off (distributed MUMPS: 5e-12 m/s on the crane's transverse probe
+    velocity between two runs)."""
     return {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
 
