@@ -112,3 +112,73 @@ def test_crane_scenario_runs_coupled_with_wheel_contacts(shared_tmp) -> None:
         gap = h[f"gap_wheel_{k}"]  # smallest gap of the wheel's pairs (0 after the preload)
         vmax = np.max(np.abs(h[f"wheel{k}_wheel_vz"]))
         assert vmax > 0.0 and np.all(gap >= -s["dt"] * vmax)
+
+
+def _mesh_nodes_and_cells() -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Node coordinates (by tag − 1) and each volume group's tetrahedra of the current model."""
+    tags, coords, _ = gmsh.model.mesh.getNodes()
+    xyz = np.empty((int(tags.max()), 3))
+    xyz[tags.astype(np.int64) - 1] = coords.reshape(-1, 3)
+    cells = {}
+    for dim, tag in gmsh.model.getPhysicalGroups(3):
+        name = gmsh.model.getPhysicalName(dim, tag)
+        conn = [
+            gmsh.model.mesh.getElementsByType(4, e)[1]
+            for e in gmsh.model.getEntitiesForPhysicalGroup(dim, tag)
+        ]
+        cells[name] = np.concatenate(conn).astype(np.int64).reshape(-1, 4) - 1
+    return xyz, cells
+
+
+def _as_set(points: np.ndarray) -> set[tuple[float, ...]]:
+    # Mirror images are computed exactly (2c − x, with x = c on the plane), so the images of
+    # the nodes must be nodes to the last bit: round only to merge −0.0 with 0.0.
+    return {tuple(p) for p in np.round(points + 0.0, 12)}
+
+
+@pytest.mark.gmsh
+@pytest.mark.parametrize("position", [2.0, 1.5])
+def test_crane_mesh_is_mirror_symmetric(position) -> None:
+    """The mesh is its own mirror image in x = 0 and, with the trolley at mid-span, in
+    y = span/2: the scene's symmetry is the mesh's, so a vertical load cannot rock or pitch the
+    trolley through the mesh alone. Every tetrahedron has a positive volume (the mirrored ones
+    were turned right side out), and each wheel's group is the image of the others'."""
+    if COMM.rank != 0:
+        pytest.skip("gmsh runs on rank 0 only")
+    geo = CraneGeometry(size=0.1, fine=0.03, trolley_position=position)
+    gmsh.initialize(interruptible=False)
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        info = build_crane_model(geo)
+        xyz, cells = _mesh_nodes_and_cells()
+    finally:
+        gmsh.finalize()
+    nodes = _as_set(xyz)
+    planes = geo.mirror_planes()
+    assert len(planes) == (2 if position == 0.5 * geo.span else 1)
+    for axis, c in planes:
+        image = xyz.copy()
+        image[:, axis] = 2.0 * c - image[:, axis]
+        assert _as_set(image) == nodes
+        for name, tets in cells.items():
+            # The cell centroids of each group map onto those of the group's image.
+            centroids = xyz[tets].mean(axis=1)
+            mirrored = centroids.copy()
+            mirrored[:, axis] = 2.0 * c - mirrored[:, axis]
+            k = name.rpartition("_")[2]
+            if k.isdigit():  # wheels 1 ↔ 3 (x), 1 ↔ 2 (y): the image of wheel k
+                x, y = geo.wheel_centres()[int(k) - 1]
+                img = [x, y]
+                img[axis] = 2.0 * c - img[axis]
+                (j,) = [
+                    i for i, w in enumerate(geo.wheel_centres()) if np.allclose(w, img, atol=1e-9)
+                ]
+                other = f"{name.rpartition('_')[0]}_{j + 1}"
+            else:
+                other = name
+            target = xyz[cells[other]].mean(axis=1)
+            assert _as_set(np.round(mirrored, 9)) == _as_set(np.round(target, 9))
+    for tets in cells.values():
+        e = xyz[tets[:, 1:]] - xyz[tets[:, :1]]
+        assert np.all(np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2])) > 0.0)
+    assert all(w.size == info.contact_pairs[0][0].size for w, _ in info.contact_pairs)

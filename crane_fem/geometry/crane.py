@@ -7,6 +7,12 @@ matching patch imprinted on the rail top are distinct, coincident surfaces with 
 (gmsh periodic constraint), so the wheel/rail contact pairs are node-to-node pairs given by
 gmsh's node correspondence, not by coordinates. Explicit zones are the wheels plus the rail and
 girder material inside a box around each contact; the rest is implicit.
+
+The scene is symmetric in x = 0 and, with the trolley at mid-span, in y = span/2; the mesh is
+made so too: gmsh meshes the region x ≥ 0 (y ≤ span/2), which :func:`_mirror_mesh` reflects
+into the whole crane. An unstructured mesh of the whole crane breaks the symmetry by itself:
+its preload spread the trolley weight 1360–1494 N over the wheels in a diagonal pattern, and a
+vertical shake rocked and pitched the trolley (10 % of the wheel response), from the mesh alone.
 """
 
 from __future__ import annotations
@@ -99,6 +105,14 @@ class CraneGeometry:
     def rail_top(self) -> float:
         return self.end_carriage_height + self.girder_height + self.rail_height
 
+    def mirror_planes(self) -> list[tuple[int, float]]:
+        """(axis, coordinate) of the planes of symmetry the mesh is mirrored in: x = 0 always
+        (the girders and the trolley are centred on it), y = span/2 with the trolley there."""
+        planes = [(0, 0.0)]
+        if abs(self.trolley_position - 0.5 * self.span) <= 1e-12 * self.span:
+            planes.append((1, 0.5 * self.span))
+        return planes
+
     def wheel_centres(self) -> list[tuple[float, float]]:
         """(x, y) of wheels 1–4: girder 1 (x < 0) rear/front, then girder 2."""
         xs = (-0.5 * self.girder_spacing, 0.5 * self.girder_spacing)
@@ -120,6 +134,144 @@ class CraneMeshInfo:
 
 def _box(x0: float, y0: float, z0: float, dx: float, dy: float, dz: float) -> int:
     return gmsh.model.occ.addBox(x0, y0, z0, dx, dy, dz)
+
+
+_IDENTITY = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
+# Order of the physical groups (and so their tags, from 1): volumes, then surfaces.
+_VOLUME_NAMES = ["bridge_implicit", "trolley_frame"] + [
+    f"{p}_{k}" for k in range(1, 5) for p in ("zone", "wheel")
+]
+_SURFACE_NAMES = ["clamped"] + [f"{p}_patch_{k}" for p in ("wheel", "rail") for k in range(1, 5)]
+
+
+def _in_region(p: tuple[float, ...], planes: list[tuple[int, float]]) -> bool:
+    """Whether the point lies in the meshed region: x ≥ 0 and, with a second plane, y ≤ its
+    coordinate (the region holds wheel 3; the mirror images give wheels 1, 2 and 4)."""
+    return all(p[a] >= c if a == 0 else p[a] <= c for a, c in planes)
+
+
+def _cut_to_region(geo: CraneGeometry, planes: list[tuple[int, float]]) -> None:
+    """Cut the OCC volumes (not synchronised) by the mirror planes and keep the region.
+
+    The bridge and the trolley are cut apart, so that the wheel bottoms and the rail patches
+    stay distinct coincident faces (one fragment of both would glue them).
+    """
+    occ = gmsh.model.occ
+    big = 10.0 * (geo.span + geo.end_carriage_length + geo.girder_spacing)
+    lo, hi = [-big] * 3, [big] * 3
+    for axis, c in planes:
+        (lo if axis == 0 else hi)[axis] = c
+    zt = geo.rail_top
+    for trolley in (False, True):
+        vols = [dt for dt in occ.getEntities(3) if (occ.getCenterOfMass(*dt)[2] > zt) == trolley]
+        box = occ.addBox(*lo, *(b - a for a, b in zip(lo, hi, strict=True)))
+        out, children = occ.fragment(vols, [(3, box)])
+        pieces = {dt for kids in children[: len(vols)] for dt in kids}
+        drop = [
+            dt for dt in out if dt not in pieces or not _in_region(occ.getCenterOfMass(*dt), planes)
+        ]
+        occ.remove(drop, recursive=True)
+
+
+def _mirror_mesh(
+    geo: CraneGeometry,
+    planes: list[tuple[int, float]],
+    vol_groups: dict[str, list[int]],
+    surf_groups: dict[str, list[int]],
+) -> None:
+    """Replace the current gmsh model (the meshed region) by the whole crane: the region and its
+    mirror images in ``planes``, as discrete entities, one per physical group.
+
+    A node on a mirror plane is its own image there, so the images conform along the planes;
+    the scene's symmetric response is then the mesh's too (an unstructured mesh of the whole
+    crane rocks and pitches the trolley on its own under a vertical load). The wheel/rail
+    patches keep their periodic (node-to-node) correspondence.
+    """
+    tags, xyz, _ = gmsh.model.mesh.getNodes()
+    tags = tags.astype(np.int64)
+    xyz = xyz.reshape(-1, 3).copy()
+    index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
+    index[tags] = np.arange(tags.size)
+    on_plane = np.zeros(tags.size, dtype=np.int64)  # bit b: the node lies on plane b
+    for b, (axis, c) in enumerate(planes):
+        hit = np.abs(xyz[:, axis] - c) < 1e-10 * (1.0 + abs(c))
+        xyz[hit, axis] = c
+        on_plane[hit] |= 1 << b
+
+    def cells(dim: int, entities: list[int]) -> npt.NDArray[np.int64]:
+        etype, nper = (4, 4) if dim == 3 else (2, 3)
+        conn = [gmsh.model.mesh.getElementsByType(etype, e)[1] for e in entities]
+        return index[np.concatenate(conn).astype(np.int64)].reshape(-1, nper)
+
+    region = {(3, n): cells(3, e) for n, e in vol_groups.items()}
+    region |= {(2, n): cells(2, e) for n, e in surf_groups.items()}
+    centres = geo.wheel_centres()
+
+    def reflect(p: npt.NDArray[np.float64], copy: int) -> npt.NDArray[np.float64]:
+        q = p.copy()
+        for b, (axis, c) in enumerate(planes):
+            if copy >> b & 1:
+                q[..., axis] = 2.0 * c - q[..., axis]
+        return q + 0.0  # no negative zeros
+
+    def rename(name: str, copy: int) -> str:
+        stem, _, k = name.rpartition("_")
+        if not k.isdigit():
+            return name
+        image = reflect(np.array([*centres[int(k) - 1], 0.0]), copy)[:2]
+        (hit,) = [j for j, c in enumerate(centres) if np.allclose(c, image, atol=1e-9)]
+        return f"{stem}_{hit + 1}"
+
+    # Node (i, copy) is node (i, copy without the planes i lies on): one new node per pair.
+    n_copies = 1 << len(planes)
+    keys = np.concatenate(
+        [np.arange(tags.size) * n_copies + (c & ~on_plane) for c in range(n_copies)]
+    )
+    uniq, first, new = np.unique(keys, return_index=True, return_inverse=True)
+    new = new.reshape(n_copies, tags.size)
+    coords = np.concatenate([reflect(xyz, c) for c in range(n_copies)])[first]
+    groups: dict[tuple[int, str], list[npt.NDArray[np.int64]]] = {}
+    for c in range(n_copies):
+        flip = bin(c).count("1") % 2 == 1  # a reflection turns the elements inside out
+        for (dim, name), conn in region.items():
+            img = new[c][conn]
+            if flip:
+                img[:, [1, 2]] = img[:, [2, 1]]
+            groups.setdefault((dim, rename(name, c)), []).append(img)
+
+    gmsh.model.remove()
+    gmsh.model.add("crane")
+    entity: dict[tuple[int, str], int] = {}
+    for dim, names in ((3, _VOLUME_NAMES), (2, _SURFACE_NAMES)):
+        for tag, name in enumerate(names, start=1):
+            if (dim, name) not in groups:
+                raise RuntimeError(f"crane geometry: no mesh for the group {name}")
+            entity[dim, name] = gmsh.model.addDiscreteEntity(dim, tag)
+    # The patch nodes belong to their patch surfaces (gmsh pairs them through these
+    # entities); every other node to the first volume.
+    owner = np.zeros(uniq.size, dtype=np.int64)
+    for (dim, name), ent in entity.items():
+        if dim == 2 and "patch" in name:
+            owner[np.concatenate(groups[dim, name]).ravel()] = ent
+    for ent in np.unique(owner):
+        nodes = np.flatnonzero(owner == ent)
+        dim, tag = (3, 1) if ent == 0 else (2, int(ent))
+        gmsh.model.mesh.addNodes(dim, tag, (nodes + 1).tolist(), coords[nodes].ravel().tolist())
+    next_element = 1
+    for (dim, name), ent in entity.items():
+        conn = np.concatenate(groups[dim, name])
+        gmsh.model.mesh.addElementsByType(
+            ent,
+            4 if dim == 3 else 2,
+            list(range(next_element, next_element + len(conn))),
+            (conn.ravel() + 1).tolist(),
+        )
+        next_element += len(conn)
+        gmsh.model.addPhysicalGroup(dim, [ent], ent, name)
+    for k in range(1, 5):
+        gmsh.model.mesh.setPeriodic(
+            2, [entity[2, f"wheel_patch_{k}"]], [entity[2, f"rail_patch_{k}"]], _IDENTITY
+        )
 
 
 def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
@@ -193,6 +345,8 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
         for x, y in geo.wheel_centres()
     ]
     occ.fragment([(3, frame)], [(3, w) for w in wheels])
+    planes = geo.mirror_planes()
+    _cut_to_region(geo, planes)
     occ.synchronize()
 
     def com(dim: int, tag: int) -> npt.NDArray[np.float64]:
@@ -204,6 +358,7 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
         vol_groups[f"zone_{k + 1}"] = []
         vol_groups[f"wheel_{k + 1}"] = []
     centres = geo.wheel_centres()
+    kept = [k for k, c in enumerate(centres) if _in_region(c, planes)]
     for _, tag in gmsh.model.getEntities(3):
         c = com(3, tag)
         if c[2] > zt + eps:  # trolley
@@ -224,21 +379,22 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
             and c[2] > hc + hg - depth - eps
         ]
         vol_groups[f"zone_{hit[0] + 1}" if hit else "bridge_implicit"].append(tag)
-    volume_groups = {}
-    for i, (name, tags) in enumerate(vol_groups.items(), start=1):
+    for k in range(4):
+        if k not in kept:  # built by the mirror images of the region
+            del vol_groups[f"zone_{k + 1}"], vol_groups[f"wheel_{k + 1}"]
+    for name, tags in vol_groups.items():
         if not tags:
             raise RuntimeError(f"crane geometry: no volume classified as {name}")
-        gmsh.model.addPhysicalGroup(3, tags, i, name)
-        volume_groups[name] = i
 
     # Surfaces: clamped end faces, wheel bottoms and rail patches (coincident, distinct).
-    wheel_tags = {t for k in range(4) for t in vol_groups[f"wheel_{k + 1}"]}
-    surface_groups: dict[str, int] = {}
-    clamped = [t for _, t in gmsh.model.getEntities(2) if abs(abs(com(2, t)[0]) - half_l) < eps]
-    gmsh.model.addPhysicalGroup(2, clamped, 1, "clamped")
-    surface_groups["clamped"] = 1
-    pairs_geo = []
-    for k, (x, y) in enumerate(centres):
+    wheel_tags = {t for k in kept for t in vol_groups[f"wheel_{k + 1}"]}
+    surf_groups: dict[str, list[int]] = {
+        "clamped": [
+            t for _, t in gmsh.model.getEntities(2) if abs(abs(com(2, t)[0]) - half_l) < eps
+        ]
+    }
+    for k in kept:
+        x, y = centres[k]
         at = [
             t
             for _, t in gmsh.model.getEntitiesInBoundingBox(
@@ -262,13 +418,9 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
         rail_face = [t for t in at if t not in wheel_face]
         if len(wheel_face) != 1 or len(rail_face) != 1:
             raise RuntimeError(f"crane geometry: contact patch {k + 1} not found")
-        gmsh.model.addPhysicalGroup(2, wheel_face, 10 + k, f"wheel_patch_{k + 1}")
-        gmsh.model.addPhysicalGroup(2, rail_face, 20 + k, f"rail_patch_{k + 1}")
-        surface_groups[f"wheel_patch_{k + 1}"] = 10 + k
-        surface_groups[f"rail_patch_{k + 1}"] = 20 + k
-        pairs_geo.append((wheel_face[0], rail_face[0]))
-        identity = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
-        gmsh.model.mesh.setPeriodic(2, [wheel_face[0]], [rail_face[0]], identity)
+        surf_groups[f"wheel_patch_{k + 1}"] = wheel_face
+        surf_groups[f"rail_patch_{k + 1}"] = rail_face
+        gmsh.model.mesh.setPeriodic(2, wheel_face, rail_face, _IDENTITY)
 
     # Graded sizes: fine within the zone boxes, coarse elsewhere.
     field = gmsh.model.mesh.field
@@ -295,6 +447,7 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
     # (measured on the quick crane: Δt_crit 8.0e-7 -> 1.2e-6 s).
     gmsh.option.setNumber("Mesh.OptimizeNetgen", 1)
     gmsh.model.mesh.generate(3)
+    _mirror_mesh(geo, planes, vol_groups, surf_groups)
     return mesh_info()
 
 
