@@ -702,7 +702,7 @@ class CoupledIntegrator:
         the interface energy; returns the link work of G on both sides (collective)."""
         I, dT = self.I, self.dT  # noqa: E741
         assert I is not None
-        du = st.du_free + 0.5 * dT * dT * (G @ I.X)
+        du = st.du_free + 0.5 * dT * dT * I.link_response(G)
         I.accept(st.u0 + du, 2.0 * du / dT - st.v0, I.a)
         self.impulse_I += impulse
         # V̄ = ½(V_0 + V_1) = ΔU/ΔT here, so both link-work forms are Gᵀ L_I ΔU.
