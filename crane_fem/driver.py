@@ -355,6 +355,9 @@ def run_coupled(
         "steps": sim.n_macro,
         "micro_steps": sim.n_macro * (integ.m if integ.coupled else 1),
         "interface_dofs": int(sim.interface_vertices.size * bs),
+        # Global DOF counts of each side (their ratio and n_Γ set the cost of a coupled run).
+        "dofs_explicit": sim.E_sub.model.K.getSize()[0] if sim.E_sub is not None else 0,
+        "dofs_implicit": sim.I_sub.model.K.getSize()[0] if sim.I_sub is not None else 0,
         "mpi_size": comm.size,
         "status": "running",
     }
