@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 import scipy.linalg
+from petsc4py import PETSc
 
 from crane_fem.contact import ContactSet, solve_mixed_lcp, solve_mixed_lcp_blocks
 from crane_fem.coupling.ph_energy import PHStorage
@@ -70,16 +71,20 @@ class ExplicitCD:
         self._work = np.zeros_like(self.u)
         self._kw = np.zeros_like(self.u)
         self._vecs = [model.create_vector(a) for a in (self.u, self.ku, self._work, self._kw)]
+        # K in block (3 × 3) storage for the product of every step: 1.5× faster than the
+        # assembled AIJ (55 against 84 µs on the 9.5k-DOF crane). A copy owned here: convert
+        # without an output matrix would convert the model's K in place.
+        self._K = model.K.convert("baij", PETSc.Mat())
         self.v_int = self.v0.copy()  # velocity at the last integer time
 
     def _k(self, x: FloatArray) -> FloatArray:
         self._work[:] = x
-        self.model.K.mult(self._vecs[2], self._vecs[3])
+        self._K.mult(self._vecs[2], self._vecs[3])
         return self._kw.copy()
 
     def residual(self, t: float) -> FloatArray:
         """Out-of-balance force F(t) − K U of the current displacement (collective)."""
-        self.model.K.mult(self._vecs[0], self._vecs[1])
+        self._K.mult(self._vecs[0], self._vecs[1])
         return self.load(t) - self.ku
 
     def damping(self, v: FloatArray) -> FloatArray:
@@ -93,7 +98,7 @@ class ExplicitCD:
         """Free step to t (``move``: U += Δt V_{j−1/2}; h = Δt, or Δt/2 for the start)."""
         if move:
             self.u += self.dt * self.vh
-        self.model.K.mult(self._vecs[0], self._vecs[1])
+        self._K.mult(self._vecs[0], self._vecs[1])
         f = self.load(t)
         cv = self.damping(self.vh)
         v_free = self.vh + h * self.model.minv * (f - self.ku - cv)
@@ -135,6 +140,7 @@ class ExplicitCD:
         self.v_int = state[2].copy()
 
     def destroy(self) -> None:
+        self._K.destroy()
         for v in self._vecs:
             v.destroy()
 
