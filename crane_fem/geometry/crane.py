@@ -232,7 +232,7 @@ def _mirror_mesh(
     coords = np.concatenate([reflect(xyz, c) for c in range(n_copies)])[first]
     groups: dict[tuple[int, str], list[npt.NDArray[np.int64]]] = {}
     for c in range(n_copies):
-        flip = bin(c).count("1") % 2 == 1  # a reflection turns the elements inside out
+        flip = c.bit_count() % 2 == 1  # a reflection turns the elements inside out
         for (dim, name), conn in region.items():
             img = new[c][conn]
             if flip:
@@ -353,12 +353,12 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
         return np.array(occ.getCenterOfMass(dim, tag))
 
     eps = 1e-6
+    centres = geo.wheel_centres()
+    kept = [k for k, c in enumerate(centres) if _in_region(c, planes)]  # the others: images
     vol_groups: dict[str, list[int]] = {"bridge_implicit": [], "trolley_frame": []}
-    for k in range(4):
+    for k in kept:
         vol_groups[f"zone_{k + 1}"] = []
         vol_groups[f"wheel_{k + 1}"] = []
-    centres = geo.wheel_centres()
-    kept = [k for k, c in enumerate(centres) if _in_region(c, planes)]
     for _, tag in gmsh.model.getEntities(3):
         c = com(3, tag)
         if c[2] > zt + eps:  # trolley
@@ -379,9 +379,6 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
             and c[2] > hc + hg - depth - eps
         ]
         vol_groups[f"zone_{hit[0] + 1}" if hit else "bridge_implicit"].append(tag)
-    for k in range(4):
-        if k not in kept:  # built by the mirror images of the region
-            del vol_groups[f"zone_{k + 1}"], vol_groups[f"wheel_{k + 1}"]
     for name, tags in vol_groups.items():
         if not tags:
             raise RuntimeError(f"crane geometry: no volume classified as {name}")
