@@ -182,6 +182,18 @@ def test_quick_scene_gc_mean_never_creates_interface_energy(quick_runs, tmp_path
     assert cmp["worst_pair_uz_l2_dynamic"] <= 0.05
 
 
+@pytest.mark.serial
+def test_quick_scene_dof_counts(quick_runs) -> None:
+    """summary.json's DOF counts: the two subdomains hold every DOF of the whole mesh once,
+    the interface DOFs twice (each side has its own copy)."""
+    het, exp = sorted(load_runs(quick_runs), key=lambda r: r.summary["method"] == "monolithic")
+    s = het.summary
+    assert s["dofs_explicit"] > 0 and s["dofs_implicit"] > s["dofs_explicit"]
+    assert exp.summary["dofs_implicit"] == 0
+    total = exp.summary["dofs_explicit"]
+    assert s["dofs_explicit"] + s["dofs_implicit"] - s["interface_dofs"] == total
+
+
 def test_pair_l2_window_ends_at_the_first_landing() -> None:
     """Synthetic histories, identical up to t = 0.7 and different after: each wheel flies over
     [0.2, 0.4 + 0.05 k]; the first landing is the last wheel down (0.6), the L2 difference up
