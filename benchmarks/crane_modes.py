@@ -10,7 +10,9 @@ the wheel side and the rail side of the probed contact pairs:
   share of the reference and the L2 difference of RUN's part, both relative to the reference's
   wheel-1 response norm (the measure of crane_fem.compare.pair_l2);
 - wheel 1's relative L2 difference after both signals are averaged over 1 and 2 ms (what is
-  left without the kHz ripple) and with RUN shifted in time by the best of ±0.3 ms (a lag).
+  left without the kHz ripple) and with RUN shifted in time by the best of ±0.3 ms (a lag);
+- the worst pair L2 (crane_fem.compare.pair_l2) up to the onset of each lift-off of the
+  reference's wheel 1 after the first: how far the runs agree before each new flight.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from crane_fem.compare import lift_off_episodes, pair_l2
 from crane_fem.plotting import Run, load_runs
 
 #: Wheel 1: (−x, −y), 2: (−x, +y), 3: (+x, −y), 4: (+x, +y) (CraneGeometry.wheel_centres).
@@ -59,6 +62,13 @@ def main() -> int:
         errs = [_rel(a[0], np.interp(t + s, ref.history["t"], c - c[0])) for s in shifts]
         i = int(np.argmin(errs))
         print(f"  wheel 1 shifted by {1e3 * shifts[i]:.2f} ms: {100 * errs[i]:.2f} %")
+    for onset, _ in lift_off_episodes(ref.history["t"], ref.history["gap_wheel_1"])[1:]:
+        l2 = pair_l2(run, ref, onset).values()
+        wheel, rail = (max(x[i] for x in l2) for i in (0, 1))
+        print(
+            f"up to the lift-off at t = {onset:.4f} s: wheel / rail {100 * wheel:.2f} / "
+            f"{100 * rail:.2f} %"
+        )
     return 0
 
 
