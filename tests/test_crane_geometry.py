@@ -131,8 +131,9 @@ def _mesh_nodes_and_cells() -> tuple[np.ndarray, dict[str, np.ndarray]]:
 
 
 def _as_set(points: np.ndarray) -> set[tuple[float, ...]]:
-    # Mirror images are computed exactly (2c − x, with x = c on the plane), so the images of
-    # the nodes must be nodes to the last bit: round only to merge −0.0 with 0.0.
+    # An image 2c − x of a node can differ from the stored node by the last bit (the mirror
+    # builder and this test round 2c − x once each); 1e-12 m is far below any mesh size, and
+    # adding 0.0 merges −0.0 with 0.0.
     return {tuple(p) for p in np.round(points + 0.0, 12)}
 
 
