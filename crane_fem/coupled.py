@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -16,19 +15,26 @@ import ufl
 from mpi4py import MPI
 
 from crane_fem.contact import ContactSet
-from crane_fem.coupling.gravouil_combescure import CoupledIntegrator, ExplicitCD
-from crane_fem.coupling.interface import build_interface, constraint_set
+from crane_fem.coupling import (
+    CoupledSystem,
+    ExplicitAlone,
+    ImplicitAlone,
+    MacroStep,
+    create_interface_operator,
+    method_class,
+)
+from crane_fem.coupling.interface import build_interface, constraint_set, zone_labels
 from crane_fem.errors import ScenarioError
 from crane_fem.geometry import TaggedMesh, create_box_beam, create_split_bar, groups
 from crane_fem.geometry.box_beam import BoxBeam
 from crane_fem.geometry.crane import CraneMesh, create_crane_mesh
+from crane_fem.integrators.explicit_zone import ExplicitZone
 from crane_fem.integrators.newmark import Newmark
 from crane_fem.loading import Accelerogram
+from crane_fem.loading.body import AffineLoad, GroundMotionHistory, PulseHistory
 from crane_fem.mesh import Segment
-from crane_fem.model import LoadFunction
 from crane_fem.preload import Preload, static_preload
 from crane_fem.scenario import (
-    COUPLED_METHODS,
     HYBRID_KEYS,
     BarModel,
     BoxBeamModel,
@@ -58,21 +64,15 @@ def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh | CraneMesh:
     return create_split_bar(comm, Segment(x0, mdl.length, mdl.elements, mdl.area), split)
 
 
-def _ground_motion_at(gm: GroundMotion) -> Callable[[float], float]:
+def _ground_motion_at(gm: GroundMotion) -> GroundMotionHistory:
     """a_g at run time t: the record from ``gm.start`` on, tapered in over ``gm.taper``."""
     record = _ground_motion(gm)
-    start, taper = gm.start, gm.taper
-    if start >= record.duration:
+    if gm.start >= record.duration:
         raise ScenarioError(
-            f"loading.ground_motion.start = {start} s is past the end of the record "
+            f"loading.ground_motion.start = {gm.start} s is past the end of the record "
             f"({record.duration:g} s)"
         )
-
-    def a_g(t: float) -> float:
-        ramp = 0.5 - 0.5 * math.cos(math.pi * t / taper) if t < taper else 1.0
-        return ramp * record(start + t)
-
-    return a_g
+    return GroundMotionHistory(record, gm.start, gm.taper)
 
 
 def _hybrid_options(cpl: Coupling | None) -> dict[str, Any]:
@@ -278,11 +278,11 @@ class CoupledSimulation:
             contacts = self._wall_contacts(self.E_sub)
         self.contacts = contacts
 
-        self.E_int: ExplicitCD | None = None
+        self.E_int: ExplicitZone | None = None
         self.I_int: Newmark | None = None
         if self.E_sub is not None:
             u0, v0 = self._initial(self.E_sub)
-            self.E_int = ExplicitCD(
+            self.E_int = ExplicitZone(
                 self.E_sub.model, self._load(self.E_sub), self.dt, u0, v0, le, contacts
             )
         if self.I_sub is not None:
@@ -299,16 +299,47 @@ class CoupledSimulation:
                 li if coupled else None,
                 consistent_mass=nm.mass == "consistent",
             )
-        self.integrator = CoupledIntegrator(
-            self.E_int,
-            self.I_int,
-            ratio if coupled else 1,
-            method if method in COUPLED_METHODS else "gc",
-            li if coupled else None,
-            dt=self.dt,
-            **_hybrid_options(cpl if coupled else None),
+        self.system = CoupledSystem(
+            self.E_int, self.I_int, ratio if coupled else 1, li if coupled else None, self.dt
         )
+        self.integrator: MacroStep
+        if coupled:
+            cls = method_class(method)
+            kwargs: dict[str, Any] = {}
+            if method in ("gc", "gc-mean", "hybrid"):
+                kwargs["operator"] = self._operator(self.I_int, ratio)  # type: ignore[arg-type]
+            if method == "hybrid":
+                kwargs["refined_operator"] = lambda side: self._operator(
+                    side, round(side.dT / self.dt)
+                )
+                kwargs.update(_hybrid_options(cpl))
+            self.integrator = cls(self.system, **kwargs)
+        else:
+            # The monolithic reference steps as the coupled run records: `ratio` steps per
+            # macro step, so that the two histories share one time grid.
+            stride = cpl.ratio if cpl is not None else 1
+            n_steps = max(1, math.ceil(sc.time.end / self.dt - 1e-9))
+            alone = ExplicitAlone if self.E_int is not None else ImplicitAlone
+            self.integrator = alone(self.system, stride, n_steps)
+            self.n_macro = self.integrator.n_macro
         self.interface_force0 = self._interface_force0() if coupled else None
+
+    def _operator(self, implicit: Newmark, ratio: int) -> Any:
+        """The GC interface operator of the explicit zone and ``implicit`` at ``ratio``, as
+        ``[coupling] interface_blocks`` and ``interface_truncation`` ask."""
+        assert self.E_int is not None and self.E_sub is not None and self.I_sub is not None
+        cpl = self.scenario.coupling
+        # One block per body of the implicit side (exact), and per explicit zone if asked.
+        blocks = zone_labels(self.I_sub, self.interface_vertices)
+        if cpl is not None and cpl.interface_blocks == "zones":
+            zones = zone_labels(self.E_sub, self.interface_vertices)
+            blocks = blocks * (int(zones.max()) + 1) + zones
+        truncation = (cpl.interface_truncation if cpl is not None else None) or 0.0
+        single = cpl is not None and cpl.interface_precision == "single"
+        op, self.operator_report = create_interface_operator(
+            self.E_int.zone.w_gamma, implicit.W, implicit.gamma, ratio, blocks, truncation, single
+        )
+        return op
 
     # -------------------------------------------------------------------------------------
     def _cell_density(self) -> FloatArray:
@@ -424,12 +455,13 @@ class CoupledSimulation:
         v0[sub.model.fixed] = 0.0
         return u0, v0
 
-    def _load(self, sub: Subdomain) -> LoadFunction:
+    def _load(self, sub: Subdomain) -> AffineLoad:
+        """The subdomain's body load: self-weight, plus −M ι a_g(t) per ground motion or the
+        tip traction pulse (owned DOFs, N)."""
         sc = self.scenario
         m = sub.model
         g = np.asarray(sc.loading.gravity, dtype=np.float64)
         bs = sub.bs
-        grav = np.zeros(m.n_owned)
         if bs == 1:
             grav = m.mass * g[0]
         else:
@@ -437,34 +469,21 @@ class CoupledSimulation:
         grav[m.fixed] = 0.0
         motions = sc.loading.ground_motions
         if motions:
-            records, units = [], []
+            histories, units = [], []
             for gm in motions:
-                records.append(_ground_motion_at(gm))
+                histories.append(_ground_motion_at(gm))
                 d = np.asarray(gm.direction, dtype=np.float64)
                 d = d / np.linalg.norm(d)
                 unit = -(m.mass.reshape(-1, bs) * d[None, :bs]).ravel()  # −M ι per unit a_g
                 unit[m.fixed] = 0.0
                 units.append(unit)
-
-            def seismic(t: float) -> FloatArray:
-                out = grav.copy()
-                for rec, unit in zip(records, units, strict=True):
-                    out += rec(t) * unit
-                return out
-
-            return seismic
+            return AffineLoad(grav, np.array(units), tuple(histories))
         tip = sc.loading.tip_traction
         if tip is None:
-            return lambda t: grav
+            return AffineLoad(grav)
         tip_v = self.tagged.global_vertices(self.tagged.facet_vertices(groups.BEAM_TIP))
         unit = _facet_traction_load(sub, tip_v, tip.traction)
-        T = tip.duration
-
-        def load(t: float) -> FloatArray:
-            s = math.sin(math.pi * t / T) if 0.0 <= t <= T else 0.0
-            return grav + s * unit
-
-        return load
+        return AffineLoad(grav, unit[None, :], (PulseHistory(tip.duration),))
 
     def probe_vertices(self) -> npt.NDArray[np.int64]:
         """Global ids of the probe: the bar's right end, the beam's tip face, or the crane's
@@ -480,6 +499,10 @@ class CoupledSimulation:
 
     def destroy(self) -> None:
         self.integrator.destroy()
+        if self.E_int is not None:
+            self.E_int.destroy()
+        if self.I_int is not None:
+            self.I_int.destroy()
         for sub in (self.E_sub, self.I_sub):
             if sub is not None:
                 sub.destroy()

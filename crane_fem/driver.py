@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 import time
@@ -303,20 +304,21 @@ def run_coupled(
     Collective over ``comm``.
     """
     from crane_fem.coupled import CoupledSimulation
-    from crane_fem.coupling.gravouil_combescure import ENERGY_KEYS, PH_KEYS
+    from crane_fem.coupling import ENERGY_KEYS
 
     comm = MPI.COMM_WORLD if comm is None else comm
     out = Path(outdir)
     t_wall = time.perf_counter()
     sim = CoupledSimulation(sc, comm)
     integ = sim.integrator
+    system = sim.system
     groups_c = sim.contacts.group_names
     bs = (sim.E_sub or sim.I_sub).bs  # type: ignore[union-attr]
     probe = sim.probe_vertices()
     columns = [
         "t",
         *ENERGY_KEYS,
-        *(PH_KEYS if integ.ph_storage is not None else []),
+        *integ.history_keys(),
         "total",
         "kinetic_explicit",
         "internal_explicit",
@@ -338,11 +340,13 @@ def run_coupled(
             pair_probe.append((k, int(sim.crane.pairs[i, 0]), int(sim.crane.pairs[i, 1])))
             columns += [f"wheel{k}_{side}_{q}" for side in ("wheel", "rail") for q in ("uz", "vz")]
     history: dict[str, list[float]] = {c: [] for c in columns}
-    # A monolithic run of a coupled scenario writes at the coupled run's output times
-    # (every `ratio` steps per macro step), so the two histories share one time grid.
-    per = sc.coupling.ratio if (sim.method == "monolithic" and sc.coupling is not None) else 1
-    every = sc.output.every * per
-    xdmf_every = (sc.output.xdmf_every or max(1, sim.n_macro // (200 * per))) * per
+    # A monolithic run of a coupled scenario steps `ratio` time steps per macro step (its
+    # records fall on the coupled run's output times: the two histories share one grid).
+    every = sc.output.every
+    xdmf_every = sc.output.xdmf_every or max(1, sim.n_macro // 200)
+    n_steps = sim.n_macro * system.m
+    if not system.coupled:
+        n_steps = integ.n_steps  # type: ignore[attr-defined]
     summary: dict[str, Any] = {
         "scenario": sc.name,
         "method": sim.method,
@@ -352,8 +356,8 @@ def run_coupled(
         "dt": sim.dt,
         "dT": sim.dT,
         "dt_critical": sim.dt_critical,
-        "steps": sim.n_macro,
-        "micro_steps": sim.n_macro * (integ.m if integ.coupled else 1),
+        "steps": sim.n_macro if system.coupled else n_steps,
+        "micro_steps": n_steps,
         "interface_dofs": int(sim.interface_vertices.size * bs),
         # Global DOF counts of each side (their ratio and n_Γ set the cost of a coupled run).
         "dofs_explicit": sim.E_sub.model.K.getSize()[0] if sim.E_sub is not None else 0,
@@ -364,7 +368,7 @@ def run_coupled(
     # Where the constraints live: owned DOFs of the contact and interface rows per rank.
     summary["contact_dofs_per_rank"] = comm.allgather(int(sim.contacts.dofs.size))
     n_if = 0
-    if sim.E_int is not None and integ.coupled:
+    if sim.E_int is not None and system.coupled:
         n_if = int(np.count_nonzero(sim.E_int.stack.rows < sim.E_int.n_gamma))
     summary["interface_dofs_per_rank"] = comm.allgather(n_if)
     if sim.preload is not None:
@@ -454,17 +458,17 @@ def run_coupled(
                     row["interface_force_norm"] = float(np.linalg.norm(rec.interface_impulse))
                     jump = 0.0
                     if (
-                        integ.coupled
+                        system.coupled
                         and sim.E_int is not None
-                        and integ.LI is not None
+                        and system.LI is not None
                         and rec.implicit_v is not None
                     ):
-                        n_g = integ.n_gamma
+                        n_g = system.n_gamma
                         jump = float(
                             np.max(
                                 np.abs(
                                     sim.E_int.stack.apply(sim.E_int.v_int)[:n_g]
-                                    + integ.LI.apply(rec.implicit_v)[:n_g]
+                                    + system.LI.apply(rec.implicit_v)[:n_g]
                                 ),
                                 initial=0.0,
                             )
@@ -521,18 +525,10 @@ def run_coupled(
         summary["interface_energy_gc_min_step"] = (
             ifd_min_step if math.isfinite(ifd_min_step) else 0.0
         )
-        if integ.method == "hybrid":  # macro steps of each kind
-            summary["hybrid_steps"] = dict(integ.hybrid_steps)
-        if integ.method == "gc-mean":  # the interface energy against its closed form
-            summary["interface_identity_error"] = integ.mean_identity_error
-        if integ.method == "ph":  # the measure of the PH argument, or why it is absent
-            summary["ph_measure"] = integ.ph_measure
-            if integ.ph_storage is not None:
-                summary["ph_kappa_min"], summary["ph_kappa_max"] = integ.ph_storage.kappa_range
-        if integ.ec_passes:  # "ec": explicit passes per macro step, worst residual
-            summary["ec_passes_mean"] = float(np.mean(integ.ec_passes))
-            summary["ec_passes_max"] = int(np.max(integ.ec_passes))
-            summary["ec_residual_max"] = integ.ec_residual
+        summary.update(integ.summary())
+        report = getattr(sim, "operator_report", None)
+        if report is not None:  # what the interface operator keeps (crane_fem.coupling.operator)
+            summary["interface_operator"] = dataclasses.asdict(report)
         times = [t for t, _ in micro]
         active = [a for _, a in micro]
         _finish_summary(summary, out, comm, t_wall, times, active, max_drift, scale)

@@ -11,8 +11,9 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from crane_fem.contact import ContactSet
+from crane_fem.loading.body import AffineLoad
 from crane_fem.mesh import BarMesh, Segment, create_bar_mesh
-from crane_fem.model import LoadFunction, StructuralModel, assemble_bar_operators
+from crane_fem.model import StructuralModel, assemble_bar_operators
 from crane_fem.scenario import BarModel, Scenario
 
 __all__ = ["Body", "Problem", "create_problem"]
@@ -35,7 +36,7 @@ class Problem:
 
     model: StructuralModel
     contacts: ContactSet
-    load: LoadFunction
+    load: AffineLoad
     u0: FloatArray
     v0: FloatArray
     h_min: float
@@ -147,8 +148,7 @@ def create_problem(comm: MPI.Comm, sc: Scenario) -> Problem:
     gx = float(sc.loading.gravity[0])
     f_gravity = np.where(fixed, 0.0, mass * gx)
 
-    def load(t: float) -> FloatArray:
-        return f_gravity
+    load = AffineLoad(f_gravity)
 
     bodies = []
     for i, name in enumerate(["bar1", "bar2"][: len(segments)]):

@@ -18,6 +18,8 @@ from crane_fem.errors import ScenarioError
 __all__ = [
     "COUPLED_METHODS",
     "HYBRID_KEYS",
+    "OPERATOR_KEYS",
+    "SOLVED_INTERFACE_METHODS",
     "Contact",
     "Integrator",
     "Scenario",
@@ -37,6 +39,9 @@ CoupledMethod = Literal["gc", "ph", "ec", "hybrid", "gc-mean"]
 COUPLED_METHODS: tuple[str, ...] = get_args(CoupledMethod)
 #: The [coupling] keys of method "hybrid" only (its integrator's keyword arguments).
 HYBRID_KEYS = ("impact_ratio", "interface_tolerance")
+#: The methods that solve the interface rows every micro step, and their operator keys.
+SOLVED_INTERFACE_METHODS = ("gc", "gc-mean", "hybrid")
+OPERATOR_KEYS = ("interface_blocks", "interface_precision", "interface_truncation")
 
 
 class _Section(BaseModel):
@@ -340,6 +345,17 @@ class Coupling(_Section):
     #: "hybrid": a GC macro step whose interface energy exceeds this fraction of the
     #: mechanical energy (kinetic + internal) is redone with ``impact_ratio``.
     interface_tolerance: PositiveFloat | None = None
+    #: gc, gc-mean, hybrid: the micro-step interface operator inverted by "bodies" (one block
+    #: per connected body of the implicit side: exact) or by "zones" (also one block per
+    #: connected explicit zone: the zones' coupling through the implicit side within a macro
+    #: step dropped; crane_fem.coupling.operator).
+    interface_blocks: Literal["bodies", "zones"] | None = None
+    #: gc, gc-mean, hybrid: the operator's eigenvectors in "double" (exact) or "single"
+    #: precision (half the memory traffic; sums stay in double).
+    interface_precision: Literal["double", "single"] | None = None
+    #: gc, gc-mean, hybrid: drop the interface modes with 2mγ s ≤ this (0 keeps every mode:
+    #: exact); each dropped mode's impulse is off by at most this fraction.
+    interface_truncation: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
 
     @property
     def monolithic_scheme(self) -> str:
@@ -425,6 +441,14 @@ class Scenario(_Section):
             return self
         if cpl is not None and cpl.scheme is not None:
             raise ValueError("coupling.scheme applies to method 'monolithic' only")
+        if cpl is not None and cpl.method not in SOLVED_INTERFACE_METHODS:
+            for key in OPERATOR_KEYS:
+                if getattr(cpl, key) is not None:
+                    raise ValueError(
+                        f"coupling.{key} applies to methods "
+                        f"{', '.join(SOLVED_INTERFACE_METHODS)} only (they solve the interface "
+                        "every micro step)"
+                    )
         if cpl is not None and cpl.method != "hybrid":
             for key in HYBRID_KEYS:
                 if getattr(cpl, key) is not None:

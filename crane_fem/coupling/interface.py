@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
+import scipy.sparse
+import scipy.sparse.csgraph
 
 from crane_fem.contact import ContactSet
 from crane_fem.subdomains import Subdomain
 
-__all__ = ["build_interface", "constraint_set"]
+__all__ = ["build_interface", "constraint_set", "zone_labels"]
 
 IntArray = npt.NDArray[np.int64]
 
@@ -69,3 +71,29 @@ def build_interface(
     le = constraint_set(explicit, vertices, 1.0, g0, ["interface"], group)
     li = constraint_set(implicit, vertices, -1.0, g0, ["interface"], group)
     return vertices, le, li
+
+
+def zone_labels(explicit: Subdomain, vertices: IntArray) -> IntArray:
+    """The connected explicit zone of each interface row (``k·bs + c`` for ``vertices[k]``):
+    0, 1, … in the order of the zones' smallest vertex (collective; the cells' vertices are
+    gathered on every rank, the zones being small by design)."""
+    msh = explicit.submesh
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim, 0)
+    n_cells = msh.topology.index_map(tdim).size_local
+    c2v = msh.topology.connectivity(tdim, 0)
+    local = explicit.vertex_global[c2v.array[: c2v.offsets[n_cells]]].reshape(n_cells, -1)
+    cells = np.concatenate(msh.comm.allgather(local.astype(np.int64)))
+    ids, inv = np.unique(cells, return_inverse=True)
+    inv = inv.reshape(cells.shape)
+    nv = cells.shape[1]
+    rows = np.repeat(inv[:, 0], nv - 1)
+    cols = inv[:, 1:].ravel()
+    graph = scipy.sparse.coo_matrix((np.ones(rows.size), (rows, cols)), shape=(ids.size, ids.size))
+    _, comp = scipy.sparse.csgraph.connected_components(graph, directed=False)
+    # Number the zones by their smallest vertex (independent of the partition).
+    first = np.full(comp.max() + 1, np.iinfo(np.int64).max)
+    np.minimum.at(first, comp, ids)
+    rank = np.argsort(np.argsort(first))
+    label = rank[comp[np.searchsorted(ids, vertices)]]
+    return np.repeat(label, explicit.bs).astype(np.int64)

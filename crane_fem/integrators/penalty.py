@@ -7,7 +7,9 @@ import numpy.typing as npt
 
 from crane_fem.contact import ContactSet
 from crane_fem.integrators.central_difference import CentralDifference
-from crane_fem.model import LoadFunction, StructuralModel
+from crane_fem.kernels import explicit as kx
+from crane_fem.loading.body import AffineLoad
+from crane_fem.model import StructuralModel
 
 __all__ = ["CDPenalty"]
 
@@ -22,32 +24,24 @@ class CDPenalty(CentralDifference):
     records is ``Δt k_p max(−g, 0)`` so that impulse/Δt is the contact force, as for the other
     schemes. The work of the penalty force is booked as ``contact_dissipated``: energy stored
     in the spring while it is compressed, and what the discrete spring failed to give back
-    (negative: created) after separation.
+    (negative: created) after separation. The step is the compiled kernel's with its penalty
+    law.
     """
 
     name = "penalty"
+    law = kx.LAW_PENALTY
 
     def __init__(
         self,
         model: StructuralModel,
         contacts: ContactSet,
-        load: LoadFunction,
+        load: AffineLoad,
         dt: float,
         u0: FloatArray,
         v0: FloatArray,
         stiffness: float,
     ) -> None:
-        super().__init__(model, contacts, load, dt, u0, v0)
         if not stiffness > 0.0:
             raise ValueError(f"penalty stiffness must be positive, got {stiffness}")
+        super().__init__(model, contacts, load, dt, u0, v0, penalty=stiffness)
         self.stiffness = float(stiffness)
-
-    def _contact_update(
-        self, v_prev: FloatArray, rhs: FloatArray, h: float
-    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-        m, c = self.model, self.contacts
-        gaps = c.g0 + c.apply(self.u)
-        force = self.stiffness * np.maximum(-gaps, 0.0)
-        f_contact = c.transpose(force, m.n_owned)
-        v_next = v_prev + h * m.minv * (rhs + f_contact)
-        return v_next, h * force, gaps, h * f_contact

@@ -54,6 +54,12 @@ class Accelerogram:
             return 0.0
         return float(np.interp(time, self.t, self.a))
 
+    def at(self, times: FloatArray) -> FloatArray:
+        """a at many times: the values :meth:`__call__` gives, in one call."""
+        out = np.interp(times, self.t, self.a)
+        out[(times < self.t[0]) | (times > self.t[-1])] = 0.0
+        return np.asarray(out, dtype=np.float64)
+
     def scaled(self, factor: float) -> Accelerogram:
         return Accelerogram(self.t, factor * self.a, f"{factor:g}×{self.name}")
 

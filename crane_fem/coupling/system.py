@@ -1,0 +1,388 @@
+"""The two sides of a heterogeneous run and the books every coupling method keeps on them.
+
+An explicit zone (crane_fem.integrators.explicit_zone, Δt) and an implicit Newmark side
+(ΔT = mΔt), either one alone for the monolithic references, joined by duplicated interface
+DOFs with L_E V_E + L_I V_I = 0 (THEORY.md §3). What is here is shared by the methods of
+crane_fem.coupling: the start (explicit half step, implicit initial acceleration), the energy
+books of each side and of the interface, the trapezoidal form of the implicit step ("ec",
+"gc-mean"), snapshots (to redo a macro step) and the record of a synchronisation time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+
+from crane_fem.contact import ContactSet
+from crane_fem.energy import BALANCE_TERMS
+from crane_fem.integrators.explicit_zone import ExplicitZone, ZoneSnapshot
+from crane_fem.integrators.newmark import Newmark
+from crane_fem.kernels import explicit as kx
+
+__all__ = [
+    "ENERGY_KEYS",
+    "PH_KEYS",
+    "CoupledSystem",
+    "MacroRecord",
+    "Snapshot",
+    "TrapezoidStep",
+]
+
+FloatArray = npt.NDArray[np.float64]
+
+ENERGY_KEYS = [
+    *BALANCE_TERMS,
+    "interface_dissipated",
+    "interface_energy_gc",
+    "interface_work_physical",
+]
+#: "ph" with an undamped explicit side: the interface energy in the measure of the PH
+#: argument (S_E + the implicit side's energy, crane_fem.coupling.ph_energy) and S_E itself.
+PH_KEYS = ["interface_energy_ph", "energy_ph_explicit"]
+
+
+@dataclass
+class MacroRecord:
+    """State at a synchronisation time t (macro step ``step``); energies are global."""
+
+    step: int
+    t: float
+    energy: dict[str, float]
+    explicit_u: FloatArray | None
+    explicit_v: FloatArray | None
+    implicit_u: FloatArray | None
+    implicit_v: FloatArray | None
+    contact_impulse: FloatArray
+    gaps: FloatArray
+    interface_impulse: FloatArray
+    micro: list[tuple[float, bool]] = field(default_factory=list)
+    #: ‖S_E‖ (N·s): the interface impulse the explicit side received since t = 0 (gc/ph:
+    #: S_E = Σ ½Δt (Λ_j−1 + Λ_j), trapezoid like the implicit side's; ec: Σ Δt G).
+    impulse_explicit: float = 0.0
+    #: ‖S_E − S_I‖ (N·s), S_I the implicit side's (gc/ph: Σ ½ΔT (Λ_n + Λ_n+1), paid with the
+    #: macro-step multipliers only; ec: Σ ΔT G): momentum one side received and the other
+    #: did not. Zero for m = 1, and for ec.
+    impulse_defect: float = 0.0
+
+
+@dataclass
+class Snapshot:
+    """Everything a coupled macro step changes, to redo it."""
+
+    explicit: ZoneSnapshot
+    implicit: tuple[FloatArray, ...]
+    arrays: tuple[FloatArray, ...]
+    acc: dict[str, float]
+    energies: tuple[float, float, float, float]
+
+
+@dataclass
+class TrapezoidStep:
+    """The implicit side at the start of a trapezoidal macro step and its free increment."""
+
+    u0: FloatArray
+    v0: FloatArray
+    cv0: FloatArray
+    f0: FloatArray
+    f1: FloatArray
+    du_free: FloatArray
+
+
+class CoupledSystem:
+    """An explicit zone and an implicit side coupled at ratio m, or either alone.
+
+    Collective over the subdomains' communicator. Owns neither side: the builder that made
+    them destroys them.
+
+    Attributes:
+        E, I: the explicit zone and the Newmark side (None when absent).
+        LI: the implicit side's interface rows L_I.
+        m, dt, dT: the ratio, micro and macro steps (s).
+        acc: the accumulated energy terms (J, global).
+        lam_macro_prev: the link force Λ (N) at the start of the macro step.
+        impulse_E, impulse_I: the interface impulses each side received since t = 0 (N·s).
+    """
+
+    def __init__(
+        self,
+        explicit: ExplicitZone | None,
+        implicit: Newmark | None,
+        ratio: int,
+        l_implicit: ContactSet | None,
+        dt: float,
+    ) -> None:
+        if explicit is None and implicit is None:
+            raise ValueError("nothing to integrate")
+        self.E, self.I, self.LI = explicit, implicit, l_implicit
+        self.coupled = explicit is not None and implicit is not None
+        self.m = int(ratio) if self.coupled else 1
+        self.dt = explicit.dt if explicit is not None else float(dt)
+        self.dT = self.m * self.dt
+        self.n_gamma = explicit.n_gamma if (explicit is not None and self.coupled) else 0
+        side = explicit.model if explicit is not None else implicit.model  # type: ignore[union-attr]
+        self.comm: MPI.Comm = side.comm
+        self.acc = dict.fromkeys(ENERGY_KEYS, 0.0)
+        self.lam_macro_prev = np.zeros(self.n_gamma)
+        self.impulse_E = np.zeros(self.n_gamma)
+        self.impulse_I = np.zeros(self.n_gamma)
+        self.n = 0
+        self.e_kin = self.e_int = self.i_kin = self.i_int = 0.0
+        self._cv_cache: tuple[FloatArray, FloatArray] | None = None
+
+    # ------------------------------------------------------------------------------------
+    def sum(self, values: list[float]) -> FloatArray:
+        """Sum a few rank-local scalars over the communicator (one reduction)."""
+        buf = np.asarray(values, dtype=np.float64)
+        out = np.empty_like(buf)
+        self.comm.Allreduce(buf, out)
+        return out
+
+    def implicit_energy(self) -> tuple[float, float]:
+        """½ VᵀMV and ½ UᵀKU of the implicit side (global)."""
+        I = self.I  # noqa: E741
+        assert I is not None
+        kin, pot = self.sum(
+            [
+                0.5 * float(np.dot(I.v, I.mass_action(I.v))),
+                0.5 * float(np.dot(I.u, I.stiffness_action(I.u))),
+            ]
+        )
+        return float(kin), float(pot)
+
+    def initialize(self, interface_force: FloatArray | None = None) -> MacroRecord:
+        """Explicit half step and implicit initial acceleration (collective).
+
+        ``interface_force`` (n_Γ, N): the link forces Λ_0 at t = 0 when the subdomains start
+        from a loaded equilibrium (a static preload); zero by default.
+        """
+        E, I = self.E, self.I  # noqa: E741
+        self.e_kin = self.e_int = self.i_kin = self.i_int = 0.0
+        lam, gaps = np.zeros(0), np.zeros(0)
+        lam0 = np.zeros(self.n_gamma)
+        if interface_force is not None and self.coupled:
+            lam0 = np.asarray(interface_force, dtype=np.float64)
+        if E is not None:
+            # V_{1/2} = V_0 + ½Δt M⁻¹ (F_0 − K U_0 − C V_0) + the link impulse of the first
+            # half step (½Δt Λ_0) and the impulses of the contacts closed at t = 0.
+            n_g = E.n_gamma
+            ctl = E.steps(
+                0.0,
+                1,
+                h0=0.5 * E.dt,
+                move0=False,
+                mode=kx.IMPOSED if n_g else kx.NONE,
+                imposed=(lam0 if n_g == lam0.size else np.zeros(n_g), np.zeros(n_g)),
+                ic=np.array([[0.5, 0.0]]),
+            )
+            out = E.advance(ctl)
+            E.state.v_int[:] = E.v0
+            kin, pot = self.sum(E.local_energies())
+            self.e_kin, self.e_int = float(kin), float(pot)
+            lam, gaps = out.lam, out.gaps
+        if I is not None:
+            link = None
+            if self.coupled and self.LI is not None:
+                link = self.LI.transpose(lam0, I.model.n_owned)
+            I.initialize(0.0, link)
+            self.i_kin, self.i_int = self.implicit_energy()
+        if E is not None and self.coupled:
+            E.state.w_prev[:] = E.stack.apply(E.v0)[: self.n_gamma]
+            E.state.lam_prev[:] = E.dt * lam0
+            self.lam_macro_prev = lam0.copy()
+        # The first impulses act over Δt/2: as forces, 2 Λ̂ / Δt.
+        return self.record(2.0 * lam, gaps, [])
+
+    def record(
+        self,
+        lam: FloatArray,
+        gaps: FloatArray,
+        micro: list[tuple[float, bool]],
+        interface_impulse: FloatArray | None = None,
+    ) -> MacroRecord:
+        """The record at the current synchronisation time: ``lam`` and ``gaps`` over the
+        stacked rows of the explicit zone (interface, then contacts)."""
+        e = dict(self.acc)
+        e["kinetic"] = self.e_kin + self.i_kin
+        e["internal"] = self.e_int + self.i_int
+        e["kinetic_explicit"], e["internal_explicit"] = self.e_kin, self.e_int
+        e["kinetic_implicit"], e["internal_implicit"] = self.i_kin, self.i_int
+        e["total"] = (
+            e["kinetic"]
+            + e["internal"]
+            - e["external_work"]
+            + e["damping_dissipated"]
+            + e["contact_dissipated"]
+            + e["numerical_dissipated"]
+            + e["interface_dissipated"]
+        )
+        n_g = self.n_gamma
+        E, I = self.E, self.I  # noqa: E741
+        if interface_impulse is None:
+            interface_impulse = lam[:n_g] / self.dt if lam.size else np.zeros(0)
+        return MacroRecord(
+            self.n,
+            self.n * self.dT,
+            e,
+            E.u if E is not None else None,
+            E.v_int if E is not None else None,
+            I.u if I is not None else None,
+            I.v if I is not None else None,
+            lam[n_g:] if lam.size else np.zeros(0),
+            gaps[n_g:] if gaps.size else np.zeros(0),
+            interface_impulse,
+            micro,
+            float(np.linalg.norm(self.impulse_E)),
+            float(np.linalg.norm(self.impulse_E - self.impulse_I)),
+        )
+
+    def micro_flags(self, t0: float, out: kx.StepsOut) -> list[tuple[float, bool]]:
+        """(t_j, a contact impulse acted) for the micro steps of a kernel call from t0."""
+        dt = self.dt
+        return [(t0 + (j + 1) * dt, bool(a)) for j, a in enumerate(out.active)]
+
+    # ------------------------------------------------------------------------------------
+    def explicit_balance(self, out: kx.StepsOut) -> float:
+        """Book the explicit side's summed micro-step terms (local, reduced here) and its
+        energies after the macro step; return the global link work on it (collective)."""
+        E = self.E
+        assert E is not None
+        s = out.sums
+        red = self.sum([s[kx.EXT], s[kx.DAMP], s[kx.CONTACT], s[kx.LINK], *E.local_energies()])
+        self.acc["external_work"] += red[0]
+        self.acc["damping_dissipated"] += red[1]
+        self.acc["contact_dissipated"] -= red[2]
+        self.e_kin, self.e_int = float(red[4]), float(red[5])
+        return float(red[3])
+
+    def damping_now(self) -> FloatArray:
+        """C V of the implicit side now, from the last balance when V has not changed."""
+        I = self.I  # noqa: E741
+        assert I is not None
+        if self._cv_cache is not None and self._cv_cache[0] is I.v:
+            return self._cv_cache[1]
+        return I.damping_action(I.v)
+
+    def implicit_balance(
+        self,
+        uI0: FloatArray,
+        vI0: FloatArray,
+        f0: FloatArray,
+        f1: FloatArray,
+        cv0: FloatArray,
+        force: FloatArray | None,
+    ) -> tuple[float, float]:
+        """Book the implicit step from (U_0, V_0) to the current state: work of the load and
+        of damping with the mean velocity V̄ = ½(V_0 + V_1), energies, and the algorithmic
+        energy of Newmark; return the link work ΔT V̄ᵀL_IᵀΛ̄ and its displacement form
+        ΔUᵀL_IᵀΛ̄ for the mean link force ``force`` (None: uncoupled) (collective)."""
+        I = self.I  # noqa: E741
+        assert I is not None
+        vbar = 0.5 * (vI0 + I.v)
+        mv1, cv1 = I.mass_and_damping(I.v)
+        self._cv_cache = (I.v, cv1)  # C V at the end: the next step's C V_0
+        link = phys = 0.0
+        if force is not None:
+            assert self.LI is not None
+            fl = self.LI.transpose(force, I.model.n_owned)
+            link = self.dT * float(np.dot(vbar, fl))
+            phys = float(np.dot(I.u - uI0, fl))
+        kin_old, pot_old = self.i_kin, self.i_int
+        red = self.sum(
+            [
+                self.dT * float(np.dot(vbar, 0.5 * (f0 + f1))),
+                self.dT * float(np.dot(vbar, 0.5 * (cv0 + cv1))),
+                link,
+                phys,
+                0.5 * float(np.dot(I.v, mv1)),
+                0.5 * float(np.dot(I.u, I.stiffness_action(I.u))),
+            ]
+        )
+        w_ext, w_damp, link_i, phys_i = (float(x) for x in red[:4])
+        self.i_kin, self.i_int = float(red[4]), float(red[5])
+        self.acc["external_work"] += w_ext
+        self.acc["damping_dissipated"] += w_damp
+        # Algorithmic energy of Newmark in the measure ½VᵀMV + ½UᵀKU (zero for β = ¼, γ = ½
+        # without damping): work of all forces in velocity form minus the energy change.
+        d_energy = (self.i_kin + self.i_int) - (kin_old + pot_old)
+        self.acc["numerical_dissipated"] += (w_ext - w_damp + link_i) - d_energy
+        return link_i, phys_i
+
+    def book_interface(self, work: float, gc_measure: float, physical: float) -> None:
+        """Add the interface terms of a macro step: minus the link work both sides received
+        in each of the three measures (J, global)."""
+        self.acc["interface_dissipated"] -= work
+        self.acc["interface_energy_gc"] -= gc_measure
+        self.acc["interface_work_physical"] -= physical
+
+    # ------------------------------------------------------------------------------------
+    # The implicit side in the displacement–velocity form of the trapezoidal rule ("ec",
+    # "gc-mean"): a free increment at the start of the macro step, the link increment of a
+    # force G constant over it at the end.
+    def trapezoid_start(self, t0: float) -> TrapezoidStep:
+        """The implicit state at t0 and its free trapezoidal increment to t0 + ΔT."""
+        I = self.I  # noqa: E741
+        assert I is not None
+        f0, f1 = I.load(t0), I.load(t0 + self.dT)
+        return TrapezoidStep(
+            I.u.copy(), I.v.copy(), self.damping_now(), f0, f1, I.trapezoid_free_increment(f0, f1)
+        )
+
+    def trapezoid_finish(
+        self, st: TrapezoidStep, G: FloatArray, impulse: FloatArray, out: kx.StepsOut
+    ) -> float:
+        """Implicit side: ΔU = ΔU_free + ½ΔT² M̃⁻¹ L_Iᵀ G, V_n+1 = 2ΔU/ΔT − V_n; it receives
+        ``impulse`` = ΔT G (as the explicit side summed it, so that the two agree to the last
+        bit). Books both sides' terms (the explicit ones summed in ``out``) and the interface
+        energy; returns the link work of G on both sides (collective)."""
+        I, dT = self.I, self.dT  # noqa: E741
+        assert I is not None
+        du = st.du_free + 0.5 * dT * dT * I.link_response(G)
+        I.accept(st.u0 + du, 2.0 * du / dT - st.v0, I.a)
+        self.impulse_I += impulse
+        # V̄ = ½(V_0 + V_1) = ΔU/ΔT here, so both link-work forms are Gᵀ L_I ΔU.
+        link_i, _ = self.implicit_balance(st.u0, st.v0, st.f0, st.f1, st.cv0, G)
+        link = self.explicit_balance(out) + link_i
+        self.book_interface(link, link, link)
+        self.lam_macro_prev = G.copy()
+        return link
+
+    # ------------------------------------------------------------------------------------
+    def snapshot(self) -> Snapshot:
+        E, I = self.E, self.I  # noqa: E741
+        assert E is not None and I is not None
+        arrays = (self.lam_macro_prev, self.impulse_E, self.impulse_I)
+        return Snapshot(
+            E.save(),
+            (I.u.copy(), I.v.copy(), I.a.copy()),
+            tuple(a.copy() for a in arrays),
+            dict(self.acc),
+            (self.e_kin, self.e_int, self.i_kin, self.i_int),
+        )
+
+    def restore(self, snap: Snapshot) -> None:
+        E, I = self.E, self.I  # noqa: E741
+        assert E is not None and I is not None
+        E.restore(snap.explicit)
+        I.u, I.v, I.a = (x.copy() for x in snap.implicit)
+        self.lam_macro_prev, self.impulse_E, self.impulse_I = (x.copy() for x in snap.arrays)
+        self.acc = dict(snap.acc)
+        self.e_kin, self.e_int, self.i_kin, self.i_int = snap.energies
+
+    def use_implicit(self, implicit: Newmark, ratio: int) -> None:
+        """Run the next macro steps with ``implicit`` (its ΔT = ratio × Δt) as the implicit
+        side ("hybrid"'s refined steps); the books carry on."""
+        self.I, self.m, self.dT = implicit, int(ratio), ratio * self.dt
+
+    def mechanical_energy(self) -> float:
+        """Kinetic + internal energy of both sides (global)."""
+        return self.e_kin + self.e_int + self.i_kin + self.i_int
+
+    def contact_gaps(self) -> FloatArray:
+        """Gaps of the explicit contact points at the current time (global)."""
+        E = self.E
+        assert E is not None
+        n_g = self.n_gamma
+        return E.stack.g0[n_g:] + E.stack.apply(E.u)[n_g:]

@@ -1,0 +1,387 @@
+"""An explicit subdomain advanced by the compiled CD-Lagrange kernel: its arrays, built once.
+
+The owner of :mod:`crane_fem.kernels.explicit` (dolfinx's custom-assembler pattern): it
+unpacks the stiffness (block CSR with local columns), the lumped mass, the loads, the stacked
+interface and contact rows, their Delassus blocks and the halo pattern of the mesh partition
+into arrays once; the kernel then advances any number of micro steps per call. Its free step
+and constraint update are those of THEORY.md §1 (Siconos' ``computeFreeState`` /
+``updateState``), fused into one pass per micro step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from crane_fem.contact import ContactSet
+from crane_fem.errors import CraneFemError
+from crane_fem.kernels import explicit as kx
+from crane_fem.kernels.mpi import comm_handle, create_requests
+from crane_fem.loading.body import AffineLoad
+from crane_fem.model import StructuralModel
+
+__all__ = ["ExplicitZone", "ZoneSnapshot", "empty_operator"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class ZoneSnapshot:
+    """Copies of everything a call of the kernel changes (to redo a macro step)."""
+
+    arrays: tuple[FloatArray, ...]
+
+
+def empty_operator(n_g: int) -> kx.InterfaceOp:
+    """An interface operator with no block (for calls that solve no interface row)."""
+    z = np.zeros(0)
+    zi = np.zeros(1, dtype=np.int64)
+    return kx.InterfaceOp(
+        0.5,
+        np.arange(n_g, dtype=np.int64),
+        zi,
+        np.zeros(n_g),
+        z,
+        np.zeros(0, dtype=np.float32),
+        zi,
+        zi[:0],
+        z,
+        zi,
+        False,
+        False,
+    )
+
+
+@dataclass(frozen=True)
+class _Halo:
+    """Neighbour ranks and, per neighbour, the owned DOFs sent and the ghost DOFs received."""
+
+    neighbours: npt.NDArray[np.int32]
+    send_ptr: IntArray
+    send_idx: IntArray
+    recv_ptr: IntArray
+    recv_idx: IntArray
+
+
+def _local_block_csr(
+    model: StructuralModel,
+) -> tuple[IntArray, IntArray, FloatArray, _Halo]:
+    """K on the owned block rows in block CSR with local columns: the owned blocks, then the
+    off-process blocks the rows reference, sorted by global index (PETSc's order for its
+    off-diagonal part), and the halo that brings their values (collective, setup only).
+
+    The off-process columns are taken from K itself, not from the space's ghosts: a mesh
+    without ghost cells has rows that reach vertices of cells owned elsewhere."""
+    comm = model.comm
+    bs = int(model.V.dofmap.index_map_bs)
+    ranges = np.asarray(model.K.getOwnershipRanges(), dtype=np.int64) // bs
+    start, end = int(ranges[comm.rank]), int(ranges[comm.rank + 1])
+    n_own_b = end - start
+    indptr, cols, vals = model.K.getValuesCSR()
+    cols = np.asarray(cols, dtype=np.int64)
+    gb, comp = cols // bs, cols % bs
+    owned = (gb >= start) & (gb < end)
+    off = np.unique(gb[~owned])
+    local_b = np.where(owned, gb - start, n_own_b + np.searchsorted(off, gb))
+    local = local_b * bs + comp
+    csr = scipy.sparse.csr_matrix(
+        (np.asarray(vals, dtype=np.float64), local, np.asarray(indptr, dtype=np.int64)),
+        shape=(n_own_b * bs, (n_own_b + off.size) * bs),
+    )
+    csr.sort_indices()
+    bsr = csr.tobsr(blocksize=(bs, bs))
+    bsr.sort_indices()
+    # Halo: who owns each off-process block, and which of ours each neighbour needs.
+    owners = np.searchsorted(ranges, off, side="right") - 1
+    size = comm.size
+    want = [off[owners == r] for r in range(size)]
+    recv_blocks = [n_own_b + np.flatnonzero(owners == r) for r in range(size)]
+    asked = comm.alltoall(want) if size > 1 else [np.zeros(0, np.int64)]
+    send_blocks = [np.asarray(a, dtype=np.int64) - start for a in asked]
+    nbrs = [r for r in range(size) if r != comm.rank and (want[r].size or send_blocks[r].size)]
+    comps = np.arange(bs)
+
+    def dofs(blocks: IntArray) -> IntArray:
+        return (blocks[:, None] * bs + comps[None, :]).ravel().astype(np.int64)
+
+    def pack(lists: list[IntArray]) -> tuple[IntArray, IntArray]:
+        ptr = np.zeros(len(lists) + 1, dtype=np.int64)
+        ptr[1:] = np.cumsum([a.size for a in lists])
+        cat = np.concatenate(lists).astype(np.int64) if lists else np.zeros(0, np.int64)
+        return ptr, cat
+
+    sp, si = pack([dofs(send_blocks[r]) for r in nbrs])
+    rp, ri = pack([dofs(recv_blocks[r]) for r in nbrs])
+    halo = _Halo(np.asarray(nbrs, dtype=np.int32), sp, si, rp, ri)
+    return (
+        np.asarray(bsr.indptr, dtype=np.int64),
+        np.asarray(bsr.indices, dtype=np.int64),
+        np.ascontiguousarray(bsr.data, dtype=np.float64),
+        halo,
+    )
+
+
+class ExplicitZone:
+    """CD-Lagrange on one explicit subdomain, stepped by the compiled kernel.
+
+    Rows of ``stack``: the n_Γ interface rows first, then the contact points. ``u``, ``vh``,
+    ``v_int`` and ``ku`` are owned-DOF views of the state (U, V_{j+1/2}, V_j, K U).
+    Collective over the model's communicator (construction and :meth:`advance`). The zone
+    owns a duplicate of the communicator: :meth:`destroy` frees it (collective).
+    """
+
+    def __init__(
+        self,
+        model: StructuralModel,
+        load: AffineLoad,
+        dt: float,
+        u0: FloatArray,
+        v0: FloatArray,
+        interface: ContactSet,
+        contacts: ContactSet,
+    ) -> None:
+        self.model, self.load, self.dt = model, load, float(dt)
+        self.n_gamma = interface.p
+        self.contacts = contacts
+        self.stack = ContactSet.stack(interface, contacts)
+        self.W = self.stack.delassus(model.minv)
+        self.v0 = np.array(v0, dtype=np.float64)
+        n_g, p = self.n_gamma, self.stack.p
+        n_own = model.n_owned
+        bs = int(model.V.dofmap.index_map_bs)
+        indptr, indices, data, halo = _local_block_csr(model)
+        n_loc_b = n_own // bs + halo.recv_idx.size // bs
+        has_ghost = np.zeros(indptr.size - 1, dtype=bool)
+        if indices.size:
+            rows = np.repeat(np.arange(indptr.size - 1), np.diff(indptr))
+            has_ghost[rows[indices >= n_own // bs]] = True
+        W = self.W
+        w_gamma = np.diag(W[:n_g, :n_g]).copy()
+        if np.any(W[:n_g, :n_g] != np.diag(w_gamma)) or np.any(w_gamma <= 0.0):
+            raise CraneFemError(
+                "explicit zone: the interface rows must act on distinct free DOFs (their "
+                "Delassus block is then diagonal and positive)"
+            )
+        W_cc = np.ascontiguousarray(W[n_g:, n_g:])
+        W_ec = np.ascontiguousarray(W[:n_g, n_g:])
+        st = self.stack
+        c_dofs = np.unique(st.dofs).astype(np.int64)
+        self._comm = model.comm.Dup()
+        nbrs, si, ri = halo.neighbours, halo.send_idx, halo.recv_idx
+        self.zone = kx.Zone(
+            bs=bs,
+            n_own=n_own,
+            dt=self.dt,
+            indptr=indptr,
+            indices=indices,
+            data=data,
+            inner=np.flatnonzero(~has_ghost).astype(np.int64),
+            boundary=np.flatnonzero(has_ghost).astype(np.int64),
+            mass=np.ascontiguousarray(model.mass, dtype=np.float64),
+            minv=np.ascontiguousarray(model.minv, dtype=np.float64),
+            alpha=float(model.alpha),
+            beta=float(model.beta),
+            load_base=np.ascontiguousarray(load.base, dtype=np.float64),
+            load_shapes=np.ascontiguousarray(load.shapes, dtype=np.float64),
+            p=p,
+            n_g=n_g,
+            t_row=st.rows.astype(np.int64),
+            t_dof=st.dofs.astype(np.int64),
+            t_coeff=st.coeffs.astype(np.float64),
+            t_pos=np.searchsorted(c_dofs, st.dofs).astype(np.int64),
+            c_dofs=c_dofs,
+            g0=st.g0.astype(np.float64),
+            tol=float(st.tol),
+            w_gamma=w_gamma,
+            W_cc=W_cc,
+            W_cc_inv=np.zeros((0, 0)),
+            W_ec=W_ec,
+            cc_diagonal=bool(np.all(W_cc == np.diag(np.diag(W_cc)))),
+            ec_zero=not bool(np.any(W_ec)),
+            mpi=comm_handle(self._comm),
+            nranks=int(self._comm.size),
+            neighbours=nbrs,
+            send_ptr=halo.send_ptr,
+            send_idx=si,
+            recv_ptr=halo.recv_ptr,
+            recv_idx=ri,
+        )
+        n_loc = n_loc_b * bs
+        u = np.zeros(n_loc)
+        u[:n_own] = u0
+        vh = np.zeros(n_loc)
+        vh[:n_own] = v0
+        n_c = c_dofs.size
+        self.state = kx.ZoneState(
+            u=u,
+            vh=vh,
+            ku=np.zeros(n_own),
+            kv=np.zeros(n_own if model.beta else 0),
+            v_int=self.v0.copy(),
+            lam_prev=np.zeros(n_g),
+            w_prev=np.zeros(n_g),
+            vold_c=np.zeros(n_c),
+            jump=np.zeros(n_c),
+            jump_c=np.zeros(n_c),
+            red=np.zeros(3 * p),
+            red_out=np.zeros(3 * p),
+            lam=np.zeros(p),
+            qe=np.zeros(n_g),
+            qc=np.zeros(p - n_g),
+            work=np.zeros(n_g),
+            send_buf=np.zeros(si.size),
+            recv_buf=np.zeros(ri.size),
+            requests=create_requests(2 * nbrs.size),
+        )
+        self._no_op = empty_operator(n_g)
+
+    # ---------------------------------------------------------------------------------
+    @property
+    def u(self) -> FloatArray:
+        return self.state.u[: self.zone.n_own]
+
+    @property
+    def vh(self) -> FloatArray:
+        return self.state.vh[: self.zone.n_own]
+
+    @property
+    def v_int(self) -> FloatArray:
+        return self.state.v_int
+
+    @property
+    def ku(self) -> FloatArray:
+        return self.state.ku
+
+    @property
+    def lam_prev(self) -> FloatArray:
+        """Interface impulses Λ̂ of the last micro step (global)."""
+        return self.state.lam_prev
+
+    @property
+    def w_prev(self) -> FloatArray:
+        """L_E V at the last integer time (global)."""
+        return self.state.w_prev
+
+    def with_bilateral_contacts(self, W_cc_inv: FloatArray) -> None:
+        """Hold the contact rows as bilateral constraints (the linear probes of "ec", "ph")."""
+        self.zone = self.zone._replace(W_cc_inv=np.ascontiguousarray(W_cc_inv))
+
+    def steps(
+        self,
+        t0: float,
+        n: int,
+        *,
+        h0: float | None = None,
+        move0: bool = True,
+        mode: int = kx.NONE,
+        law: int = kx.LAW_LCP,
+        penalty: float = 0.0,
+        targets: tuple[FloatArray, FloatArray] | None = None,
+        tc: FloatArray | None = None,
+        k_op: FloatArray | None = None,
+        imposed: tuple[FloatArray, FloatArray] | None = None,
+        ic: FloatArray | None = None,
+        watch: npt.NDArray[np.bool_] | None = None,
+        keep_impulses: bool = False,
+        times: npt.NDArray[np.floating[Any]] | None = None,
+    ) -> kx.Steps:
+        """The description of ``n`` micro steps from t0: t_j = t0 + jΔt, j = 1..n (or the
+        given ``times``; t0 itself for a first step that does not move U)."""
+        n_g = self.n_gamma
+        at: FloatArray
+        if times is not None:
+            at = np.asarray(times, dtype=np.float64)
+        elif move0:
+            at = t0 + np.arange(1, n + 1, dtype=np.float64) * self.dt
+        else:
+            at = np.full(n, t0)
+        z2 = np.zeros((n, 2))
+        return kx.Steps(
+            n=n,
+            h0=self.dt if h0 is None else float(h0),
+            move0=move0,
+            coef=np.ascontiguousarray(self.load.coefficients(at)),
+            mode=mode,
+            law=law,
+            penalty=float(penalty),
+            tc=z2 if tc is None else np.ascontiguousarray(tc, dtype=np.float64),
+            targets=np.zeros((2, n_g)) if targets is None else np.vstack(targets),
+            k_op=np.zeros(n) if k_op is None else np.asarray(k_op, dtype=np.float64),
+            ic=z2 if ic is None else np.ascontiguousarray(ic, dtype=np.float64),
+            imposed=np.zeros((2, n_g)) if imposed is None else np.vstack(imposed),
+            watch=np.zeros(0, dtype=bool) if watch is None else np.asarray(watch, dtype=bool),
+            keep_impulses=keep_impulses,
+        )
+
+    def advance(self, ctl: kx.Steps, op: kx.InterfaceOp | None = None) -> kx.StepsOut:
+        """Integrate the micro steps ``ctl`` describes (collective)."""
+        n, p, n_g = ctl.n, self.stack.p, self.n_gamma
+        out = kx.StepsOut(
+            lam=np.zeros(p),
+            gaps=np.zeros(p),
+            active=np.zeros(n, dtype=bool),
+            sums=np.zeros(6),
+            impulse_trap=np.zeros(n_g),
+            impulse_sum=np.zeros(n_g),
+            impulses=np.zeros((n if ctl.keep_impulses else 0, n_g)),
+            w=np.zeros(n_g),
+            flags=np.zeros(3, dtype=np.int64),
+        )
+        if ctl.mode == kx.SOLVED and op is None:
+            raise ValueError("solved interface rows need an interface operator")
+        kx.run_steps(self.zone, op if op is not None else self._no_op, self.state, ctl, out)
+        if out.flags[kx.MPI_ERROR]:
+            raise CraneFemError("explicit zone: an MPI call of the kernel failed")
+        if out.flags[kx.LCP_ERROR]:
+            raise ValueError(
+                "contact Delassus operator is singular: two active constraints are redundant"
+            )
+        return out
+
+    def residual(self, t: float) -> FloatArray:
+        """Out-of-balance force F(t) − K U of the current displacement (collective)."""
+        m = self.model
+        # The block (3 × 3) product sums as the kernel does (AIJ sums in another order).
+        K = m.K.convert("baij", PETSc.Mat())
+        x = m.create_vector(self.u.copy())
+        y = x.duplicate()
+        K.mult(x, y)
+        ku = np.array(y.array_r, dtype=np.float64)
+        for obj in (x, y, K):
+            obj.destroy()
+        return self.load(t) - ku
+
+    def save(self) -> ZoneSnapshot:
+        s = self.state
+        return ZoneSnapshot(
+            tuple(a.copy() for a in (s.u, s.vh, s.ku, s.kv, s.v_int, s.lam_prev, s.w_prev))
+        )
+
+    def restore(self, snap: ZoneSnapshot) -> None:
+        s = self.state
+        for dst, src in zip(
+            (s.u, s.vh, s.ku, s.kv, s.v_int, s.lam_prev, s.w_prev), snap.arrays, strict=True
+        ):
+            dst[:] = src
+
+    def local_energies(self) -> list[float]:
+        """Local shadow kinetic and internal energy after the last micro step (THEORY.md §3:
+        ½ V_{j+1/2}ᵀ M V_{j+1/2}, ½ U_{j+1}ᵀ K U_j = ½ U_jᵀ K U_j + ½ Δt V_{j+1/2}ᵀ K U_j)."""
+        m = self.model
+        vh, u, ku = self.vh, self.u, self.ku
+        return [
+            0.5 * float(np.dot(vh, m.mass * vh)),
+            0.5 * float(np.dot(u, ku)) + 0.5 * self.dt * float(np.dot(vh, ku)),
+        ]
+
+    def destroy(self) -> None:
+        """Free the duplicated communicator (collective)."""
+        if self._comm != MPI.COMM_NULL:
+            self._comm.Free()
