@@ -1,0 +1,319 @@
+"""Run a scenario with subdomains: set up through the pipeline, loop over macro steps, monitor,
+and feed the writers (history rows, one XDMF file per subdomain, the summary)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+
+from crane_fem.coupling import ENERGY_KEYS, MacroRecord
+from crane_fem.driver import RunResult, finish_summary, progress_bar
+from crane_fem.errors import UnstableRunError
+from crane_fem.io import HistoryWriter, XDMFSeries
+from crane_fem.pipeline import Simulation, create_simulation
+from crane_fem.scenario import Scenario
+from crane_fem.stability import EnergyGrowthMonitor
+from crane_fem.subdomains import Subdomain
+
+__all__ = ["HistoryRows", "run_coupled"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def _growth_check(monitor: EnergyGrowthMonitor, sim: Simulation, rec: MacroRecord) -> None:
+    """Stop a diverging run (:meth:`EnergyGrowthMonitor.growth`) or a non-finite one with a
+    diagnosis naming the subdomain whose kinetic energy dominates, the macro step, the energy
+    the interface has created, m, and Δt against the explicit critical step."""
+    e, md = rec.energy, sim.models
+    step = f"Δt = {md.dt:.4e} s is {md.dt / md.dt_critical:.3f}× the critical step "
+    step += f"{md.dt_critical:.4e} s"
+    explicit = e["kinetic_explicit"] >= e["kinetic_implicit"]
+    if not all(math.isfinite(v) for v in e.values()):
+        explicit = not math.isfinite(e["kinetic_explicit"]) or math.isfinite(e["kinetic_implicit"])
+        reason = "non-finite energy"
+    else:
+        reason = monitor.growth(e["kinetic"], e["internal"], e["external_work"]) or ""
+        if not reason:
+            return
+    names = md.explicit_names if explicit else md.implicit_names
+    scheme = "cd-lagrange" if explicit else "newmark"
+    ifd = e["interface_dissipated"]
+    raise UnstableRunError(
+        f"unstable run: subdomain '{'+'.join(names)}' ({scheme}) at macro step {rec.step} "
+        f"(t = {rec.t:.6g} s): {reason}; the interface has "
+        f"{'created' if not ifd >= 0 else 'dissipated'} {abs(ifd):.3e} J "
+        f"(method {md.method}, m = {md.ratio}); {step}"
+    )
+
+
+class HistoryRows:
+    """The history columns of a run with subdomains and the row of each record (collective:
+    the probe and pair values are reduced over the communicator)."""
+
+    def __init__(self, sim: Simulation) -> None:
+        self.sim = sim
+        md, it = sim.models, sim.integrators
+        self.contacts = sim.constraints.contacts
+        self.groups = self.contacts.group_names
+        sub = md.explicit or md.implicit
+        assert sub is not None
+        self.bs = sub.bs
+        self.probe = sim.probe_vertices()
+        cols = ["t", *ENERGY_KEYS, *it.method.history_keys(), "total"]
+        cols += ["kinetic_explicit", "internal_explicit", "kinetic_implicit", "internal_implicit"]
+        cols += ["contact_force", "active_contacts"]
+        cols += [f"gap_{g}" for g in self.groups] + [f"force_{g}" for g in self.groups]
+        cols += [f"probe_u{c}" for c in range(self.bs)] + [f"probe_v{c}" for c in range(self.bs)]
+        cols += ["interface_force_norm", "interface_velocity_jump"]
+        cols += ["interface_impulse", "interface_impulse_defect"]
+        # Crane: one wheel/rail node pair per wheel (the first pair of each patch), vertical
+        # displacement and velocity on both sides (the paper's Figs. 5–6).
+        self.pairs: list[tuple[int, int, int]] = []
+        crane = sim.mesh.crane
+        if crane is not None:
+            for k in range(1, 5):
+                i = int(np.flatnonzero(crane.wheel == k)[0])
+                self.pairs.append((k, int(crane.pairs[i, 0]), int(crane.pairs[i, 1])))
+                cols += [f"wheel{k}_{s}_{q}" for s in ("wheel", "rail") for q in ("uz", "vz")]
+        self.columns = cols
+
+    @staticmethod
+    def _probe_sums(
+        sub: Subdomain, values: FloatArray | None, vertices: Any, exclude: Any
+    ) -> tuple[FloatArray, int]:
+        """Local sums of ``values`` (owned DOFs) per component over probe vertices."""
+        assert values is not None
+        blocks, _ = sub.owned_dofs_of(np.setdiff1d(vertices, exclude))
+        vals = values.reshape(-1, sub.bs)[blocks]
+        return vals.sum(axis=0), int(blocks.size)
+
+    def row(self, rec: MacroRecord) -> dict[str, float]:
+        sim, bs = self.sim, self.bs
+        md, it = sim.models, sim.integrators
+        comm = sim.mesh.comm
+        e = rec.energy
+        row: dict[str, float] = {"t": rec.t}
+        row.update({k: e[k] for k in self.columns if k in e})
+        force = rec.contact_impulse / md.dt
+        row["contact_force"] = float(force.sum())
+        row["active_contacts"] = float(np.count_nonzero(force > 0))
+        gmin = self.contacts.group_mins(rec.gaps)
+        gsum = self.contacts.group_sums(force)
+        for i, g in enumerate(self.groups):
+            row[f"gap_{g}"] = float(gmin[i])
+            row[f"force_{g}"] = float(gsum[i])
+        su, sv, cnt = np.zeros(bs), np.zeros(bs), 0
+        if md.explicit is not None:
+            a, k = self._probe_sums(md.explicit, rec.explicit_u, self.probe, np.zeros(0))
+            b, _ = self._probe_sums(md.explicit, rec.explicit_v, self.probe, np.zeros(0))
+            su, sv, cnt = su + a, sv + b, cnt + k
+        if md.implicit is not None:
+            excl = sim.constraints.interface_vertices if md.explicit is not None else np.zeros(0)
+            a, k = self._probe_sums(md.implicit, rec.implicit_u, self.probe, excl)
+            b, _ = self._probe_sums(md.implicit, rec.implicit_v, self.probe, excl)
+            su, sv, cnt = su + a, sv + b, cnt + k
+        tot = comm.allreduce(np.r_[su, sv, cnt], op=MPI.SUM)
+        for k in range(bs):
+            row[f"probe_u{k}"] = float(tot[k] / max(tot[-1], 1))
+            row[f"probe_v{k}"] = float(tot[bs + k] / max(tot[-1], 1))
+        row["interface_force_norm"] = float(np.linalg.norm(rec.interface_impulse))
+        jump = 0.0
+        system, E = it.system, it.explicit
+        if system.coupled and E is not None and system.LI is not None:
+            assert rec.implicit_v is not None
+            n_g = system.n_gamma
+            w = E.stack.apply(E.v_int)[:n_g] + system.LI.apply(rec.implicit_v)[:n_g]
+            jump = float(np.max(np.abs(w), initial=0.0))
+        row["interface_velocity_jump"] = jump
+        row["interface_impulse"] = rec.impulse_explicit
+        row["interface_impulse_defect"] = rec.impulse_defect
+        if self.pairs:
+            sub = md.explicit
+            assert sub is not None and rec.explicit_u is not None and rec.explicit_v is not None
+            ids = np.array([v for _, w_, r in self.pairs for v in (w_, r)])
+            order = np.argsort(ids)
+            blocks, pos = sub.owned_dofs_of(ids[order])
+            vals = np.zeros((ids.size, 2))
+            dz = blocks * sub.bs + 2
+            vals[order[pos], 0] = rec.explicit_u[dz]
+            vals[order[pos], 1] = rec.explicit_v[dz]
+            vals = comm.allreduce(vals, op=MPI.SUM)
+            for n_p, (k, _, _) in enumerate(self.pairs):
+                for s_i, side in enumerate(("wheel", "rail")):
+                    row[f"wheel{k}_{side}_uz"] = float(vals[2 * n_p + s_i, 0])
+                    row[f"wheel{k}_{side}_vz"] = float(vals[2 * n_p + s_i, 1])
+        return row
+
+
+def _xdmf_writers(sc: Scenario, sim: Simulation, out: Path) -> list[tuple[Subdomain, XDMFSeries]]:
+    writers: list[tuple[Subdomain, XDMFSeries]] = []
+    if not sc.output.xdmf:
+        return writers
+    md = sim.models
+    for sub in (md.explicit, md.implicit):
+        if sub is None:
+            continue
+        is_e = sub is md.explicit
+        names = ["displacement", "velocity"] + (["contact_force"] if is_e else [])
+        series = XDMFSeries(
+            out / f"solution_{sub.name.replace('+', '_')}.xdmf",
+            sub.V,
+            names,
+            constants={"subdomain": 0.0 if is_e else 1.0},
+            von_mises=(sc.material.E, sc.material.nu) if sub.bs == 3 else None,
+        )
+        writers.append((sub, series))
+    return writers
+
+
+def _summary_head(sc: Scenario, sim: Simulation, comm: MPI.Comm) -> dict[str, Any]:
+    md, cons, it = sim.models, sim.constraints, sim.integrators
+    sub = md.explicit or md.implicit
+    assert sub is not None
+    n_steps = md.n_macro * it.system.m if md.coupled else md.n_steps
+    summary: dict[str, Any] = {
+        "scenario": sc.name,
+        "method": md.method,
+        "ratio": md.ratio,
+        "explicit_subdomains": md.explicit_names,
+        "implicit_subdomains": md.implicit_names,
+        "dt": md.dt,
+        "dT": md.dT,
+        "dt_critical": md.dt_critical,
+        "steps": md.n_macro if md.coupled else n_steps,
+        "micro_steps": n_steps,
+        "interface_dofs": int(cons.interface_vertices.size * sub.bs),
+        # Global DOF counts of each side (their ratio and n_Γ set the cost of a coupled run).
+        "dofs_explicit": md.explicit.model.K.getSize()[0] if md.explicit is not None else 0,
+        "dofs_implicit": md.implicit.model.K.getSize()[0] if md.implicit is not None else 0,
+        "mpi_size": comm.size,
+        "status": "running",
+    }
+    # Where the constraints live: owned DOFs of the contact and interface rows per rank.
+    summary["contact_dofs_per_rank"] = comm.allgather(int(cons.contacts.dofs.size))
+    E = it.explicit
+    n_if = int(np.count_nonzero(E.stack.rows < E.n_gamma)) if E is not None else 0
+    summary["interface_dofs_per_rank"] = comm.allgather(n_if if md.coupled else 0)
+    if md.preload is not None:
+        pre = md.preload
+        summary["preload"] = {
+            "trolley_weight_N": pre.weight,
+            "wheel_forces_N": [float(x) for x in pre.wheel_force],
+            "sum_relative_error": pre.relative_error,
+            "support_reaction_N": pre.support_reaction,
+            "max_penetration_m": pre.penetration,
+        }
+    if it.operator_report is not None:  # what the interface operator keeps
+        summary["interface_operator"] = dataclasses.asdict(it.operator_report)
+    return summary
+
+
+def run_coupled(
+    sc: Scenario, outdir: str | Path, comm: MPI.Comm | None = None, progress: bool | None = None
+) -> RunResult:
+    """Run a scenario with subdomains (a coupling method or the monolithic reference); outputs
+    as :func:`crane_fem.driver.run_scenario` plus the ``interface_*`` columns and one XDMF file
+    per subdomain. The summary gives the set-up and time-loop wall times apart.
+
+    Collective over ``comm``.
+    """
+    comm = MPI.COMM_WORLD if comm is None else comm
+    out = Path(outdir)
+    t_wall = time.perf_counter()
+    sim = create_simulation(sc, comm)
+    md, it = sim.models, sim.integrators
+    method = it.method
+    rows = HistoryRows(sim)
+    columns = rows.columns
+    history: dict[str, list[float]] = {c: [] for c in columns}
+    every = sc.output.every
+    xdmf_every = sc.output.xdmf_every or max(1, md.n_macro // 200)
+    summary = _summary_head(sc, sim, comm)
+    writers = _xdmf_writers(sc, sim, out)
+    bar = progress_bar(sc, comm, progress, md.n_macro, "macro step")
+    micro: list[tuple[float, bool]] = []
+    total0: float | None = None
+    scale = max_drift = 0.0
+    ifd_min_step = math.inf
+    ifd_prev = 0.0
+    monitor = EnergyGrowthMonitor(sc.monitor.energy_growth, "", "", md.dt, md.dt_critical)
+    comm.barrier()
+    t_loop = time.perf_counter()
+    summary["wall_time_setup_s"] = comm.allreduce(t_loop - t_wall, op=MPI.MAX)
+    t_output = 0.0
+    try:
+        with HistoryWriter(out / "history.csv", columns, comm) as writer:
+            rec = method.initialize(it.interface_force0)
+            n = 0
+            while True:
+                e = rec.energy
+                _growth_check(monitor, sim, rec)
+                if total0 is None:
+                    total0 = e["total"]
+                scale = max(scale, abs(e["kinetic"]) + abs(e["internal"]) + abs(e["external_work"]))
+                max_drift = max(max_drift, abs(e["total"] - total0))
+                step_ifd = e["interface_energy_gc"] - ifd_prev
+                if rec.step > 0:
+                    ifd_min_step = min(ifd_min_step, step_ifd)
+                ifd_prev = e["interface_energy_gc"]
+                micro.extend(rec.micro)
+                t_out = time.perf_counter()
+                if rec.step % every == 0 or rec.step == md.n_macro:
+                    row = rows.row(rec)
+                    writer.write(row)
+                    for c in columns:
+                        history[c].append(row[c])
+                if writers and (rec.step % xdmf_every == 0 or rec.step == md.n_macro):
+                    for sub, w in writers:
+                        is_e = sub is md.explicit
+                        du = rec.explicit_u if is_e else rec.implicit_u
+                        dv = rec.explicit_v if is_e else rec.implicit_v
+                        assert du is not None and dv is not None
+                        fields = {"displacement": du, "velocity": dv}
+                        if is_e:
+                            fields["contact_force"] = (
+                                sim.constraints.contacts.transpose(rec.contact_impulse, du.size)
+                                / md.dt
+                            )
+                        w.write(rec.t, fields)
+                t_output += time.perf_counter() - t_out
+                if n == md.n_macro:
+                    break
+                rec = method.step()
+                n += 1
+                bar.update(1)
+        summary["status"] = "completed"
+    except UnstableRunError as exc:
+        summary["status"] = "unstable"
+        summary["diagnosis"] = str(exc)
+        raise
+    except KeyboardInterrupt:
+        summary["status"] = "interrupted"
+        summary["diagnosis"] = "interrupted by the user; the files hold the steps done"
+        raise
+    finally:
+        bar.close()
+        for _, w in writers:
+            w.close()
+        # The time loop alone: integration, without the history rows and XDMF frames.
+        loop = time.perf_counter() - t_loop
+        summary["wall_time_integration_s"] = comm.allreduce(loop - t_output, op=MPI.MAX)
+        summary["wall_time_output_s"] = comm.allreduce(t_output, op=MPI.MAX)
+        summary["steps_done"] = round(history["t"][-1] / md.dT) if history["t"] else 0
+        summary["interface_energy_gc_min_step"] = (
+            ifd_min_step if math.isfinite(ifd_min_step) else 0.0
+        )
+        summary.update(method.summary())
+        times = [t for t, _ in micro]
+        active = [a for _, a in micro]
+        finish_summary(summary, out, comm, t_wall, times, active, max_drift, scale)
+        sim.destroy()
+        comm.barrier()
+    return RunResult(summary, {c: np.asarray(v, dtype=np.float64) for c, v in history.items()})

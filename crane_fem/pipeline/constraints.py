@@ -1,0 +1,114 @@
+"""Pipeline stage 3, models → constraints: the duplicated interface DOFs between the explicit
+and implicit subdomains, and the unilateral contacts of the explicit side."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+
+from crane_fem.contact import ContactSet
+from crane_fem.coupling.interface import build_interface, constraint_set
+from crane_fem.errors import ScenarioError
+from crane_fem.geometry import groups
+from crane_fem.geometry.crane import CraneMesh
+from crane_fem.pipeline.mesh import MeshStage
+from crane_fem.pipeline.models import ModelStage
+from crane_fem.preload import Preload
+from crane_fem.scenario import CraneModel, Scenario
+from crane_fem.subdomains import Subdomain, global_ids
+
+__all__ = ["ConstraintStage", "build_constraints"]
+
+IntArray = npt.NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class ConstraintStage:
+    """The interface (sorted global parent vertices, L_E and L_I) and the contacts."""
+
+    interface_vertices: IntArray
+    l_explicit: ContactSet
+    l_implicit: ContactSet
+    contacts: ContactSet
+
+
+def _wall_contacts(sc: Scenario, mesh: MeshStage, sub: Subdomain) -> ContactSet:
+    """The bar's left end against the rigid wall at x = 0 (gap ``contact.gap``)."""
+    tagged = mesh.tagged
+    left = tagged.global_vertices(tagged.facet_vertices(groups.BAR_LEFT_END))
+    blocks, _ = sub.owned_dofs_of(left)
+    have = global_ids(mesh.comm, sub.parent_vertex[blocks])
+    if have.size != left.size:
+        raise ScenarioError(
+            "contact: the wall touches the bar's left end, which must belong "
+            "to an explicit (cd-lagrange) subdomain"
+        )
+    wall = next(c for c in sc.contact if c.type == "wall")
+    return constraint_set(
+        sub, left, 1.0, np.array([wall.gap]), [wall.label], np.zeros(1, dtype=np.int64)
+    )
+
+
+def _pair_contacts(
+    comm: MPI.Comm, sub: Subdomain, crane: CraneMesh, preload: Preload | None, span: float
+) -> ContactSet:
+    """Vertical node-to-node contacts g = u_z(wheel) − u_z(rail) ≥ 0 (touching at t = 0)."""
+    pairs = crane.pairs
+    rows, dofs, coeffs = [], [], []
+    for side, coeff in ((0, 1.0), (1, -1.0)):
+        order = np.argsort(pairs[:, side])
+        sorted_v = pairs[order, side]
+        blocks, pos = sub.owned_dofs_of(sorted_v)
+        rows.append(order[pos])
+        dofs.append(blocks * sub.bs + 2)
+        coeffs.append(np.full(blocks.size, coeff))
+    have = comm.allreduce(sum(r.size for r in rows), op=MPI.SUM)
+    if have != 2 * pairs.shape[0]:
+        raise ScenarioError(
+            "the wheels and their rail zones must belong to explicit (cd-lagrange) subdomains"
+        )
+    names = [f"wheel_{k}" for k in range(1, 5)]
+    g0 = np.zeros(pairs.shape[0])
+    if preload is not None:
+        # Start with every gap at exactly 0: the preload's residual interpenetration
+        # F/k_p is an artefact of its penalty springs (see crane_fem.preload).
+        d = preload.displacement
+        g0 = np.where(preload.closed, -(d[pairs[:, 0], 2] - d[pairs[:, 1], 2]), 0.0)
+    return ContactSet(
+        comm,
+        g0,
+        np.concatenate(rows).astype(np.int64),
+        np.concatenate(dofs).astype(np.int64),
+        np.concatenate(coeffs),
+        (crane.wheel - 1).astype(np.int64),
+        names,
+        # A pair held closed drifts by round-off (ε |u|): 1e-12 of the span absorbs it.
+        tol=1e-12 * span,
+    )
+
+
+def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> ConstraintStage:
+    """Interface rows and contacts (collective)."""
+    comm = mesh.comm
+    E_sub, I_sub = models.explicit, models.implicit
+    vertices = np.zeros(0, dtype=np.int64)
+    le = li = ContactSet.empty(comm)
+    if models.coupled:
+        assert E_sub is not None and I_sub is not None
+        vertices, le, li = build_interface(E_sub, I_sub)
+        if vertices.size == 0:
+            raise ScenarioError("subdomain: the explicit and implicit subdomains do not touch")
+    contacts = ContactSet.empty(comm)
+    if mesh.crane is not None:
+        if E_sub is None:
+            raise ScenarioError("the crane's wheel/rail contacts need an explicit subdomain")
+        assert isinstance(sc.model, CraneModel)
+        contacts = _pair_contacts(comm, E_sub, mesh.crane, models.preload, sc.model.span)
+    elif sc.contact:
+        if E_sub is None:
+            raise ScenarioError("contact: needs an explicit (cd-lagrange) subdomain")
+        contacts = _wall_contacts(sc, mesh, E_sub)
+    return ConstraintStage(vertices, le, li, contacts)

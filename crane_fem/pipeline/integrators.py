@@ -1,0 +1,166 @@
+"""Pipeline stage 4, constraints → integrator: the explicit zone, the Newmark side, the
+coupled system and the coupling method (a :class:`~crane_fem.coupling.MacroStep`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+
+from crane_fem.coupling import (
+    CoupledSystem,
+    ExplicitAlone,
+    ImplicitAlone,
+    MacroStep,
+    OperatorReport,
+    create_interface_operator,
+    method_class,
+)
+from crane_fem.coupling.interface import zone_labels
+from crane_fem.integrators.explicit_zone import ExplicitZone
+from crane_fem.integrators.newmark import Newmark
+from crane_fem.kernels.explicit import InterfaceOp
+from crane_fem.pipeline.constraints import ConstraintStage
+from crane_fem.pipeline.loads import body_load, initial_state
+from crane_fem.pipeline.mesh import MeshStage
+from crane_fem.pipeline.models import ModelStage
+from crane_fem.scenario import HYBRID_KEYS, Scenario
+
+__all__ = ["IntegratorStage", "build_integrators"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass
+class IntegratorStage:
+    """The integrators of a scenario (owns them: ``destroy``, collective).
+
+    Attributes:
+        explicit: the explicit zone, or None; implicit: the Newmark side, or None.
+        system: the two sides and their books; method: the macro-step method.
+        operator_report: what the GC interface operator keeps (gc, gc-mean, hybrid).
+        interface_force0: the link forces Λ_0 of a preloaded start, or None.
+    """
+
+    explicit: ExplicitZone | None
+    implicit: Newmark | None
+    system: CoupledSystem
+    method: MacroStep
+    operator_report: OperatorReport | None
+    interface_force0: FloatArray | None
+
+    def destroy(self) -> None:
+        self.method.destroy()
+        if self.explicit is not None:
+            self.explicit.destroy()
+        if self.implicit is not None:
+            self.implicit.destroy()
+
+
+def _interface_force0(comm: MPI.Comm, E: ExplicitZone) -> FloatArray:
+    """Link forces Λ_0 holding the preloaded subdomains in equilibrium: the explicit side's
+    residual f − K u on its interface rows, Λ_0 = −r_E / c (collective)."""
+    n_g = E.n_gamma
+    r = E.residual(0.0)
+    st = E.stack
+    sel = st.rows < n_g
+    lam = np.zeros(n_g)
+    lam[st.rows[sel]] = -r[st.dofs[sel]] / st.coeffs[sel]
+    out: FloatArray = comm.allreduce(lam, op=MPI.SUM)
+    return out
+
+
+class _OperatorFactory:
+    """The GC interface operator of the explicit zone and a Newmark side at a ratio, as
+    ``[coupling] interface_blocks / interface_precision / interface_truncation`` ask:
+    one block per body of the implicit side (exact), and per explicit zone if asked."""
+
+    def __init__(self, sc: Scenario, models: ModelStage, cons: ConstraintStage) -> None:
+        assert models.explicit is not None and models.implicit is not None
+        cpl = sc.coupling
+        blocks = zone_labels(models.implicit, cons.interface_vertices)
+        if cpl is not None and cpl.interface_blocks == "zones":
+            zones = zone_labels(models.explicit, cons.interface_vertices)
+            blocks = blocks * (int(zones.max()) + 1) + zones
+        self.blocks = blocks
+        self.truncation = (cpl.interface_truncation if cpl is not None else None) or 0.0
+        self.single = cpl is not None and cpl.interface_precision == "single"
+        self.report: OperatorReport | None = None
+
+    def __call__(self, E: ExplicitZone, implicit: Newmark, ratio: int) -> InterfaceOp:
+        op, report = create_interface_operator(
+            E.zone.w_gamma,
+            implicit.W,
+            implicit.gamma,
+            ratio,
+            self.blocks,
+            self.truncation,
+            self.single,
+        )
+        self.report = self.report or report
+        return op
+
+
+def build_integrators(
+    sc: Scenario, mesh: MeshStage, models: ModelStage, cons: ConstraintStage
+) -> IntegratorStage:
+    """Explicit zone, Newmark side, coupled system and method (collective)."""
+    E = I = None  # noqa: E741
+    coupled = models.coupled
+    if models.explicit is not None:
+        sub = models.explicit
+        u0, v0 = initial_state(sc, sub, models.preload)
+        E = ExplicitZone(
+            sub.model,
+            body_load(sc, mesh, sub),
+            models.dt,
+            u0,
+            v0,
+            cons.l_explicit,
+            cons.contacts,
+        )
+    if models.implicit is not None:
+        sub = models.implicit
+        u0, v0 = initial_state(sc, sub, models.preload)
+        nm = sc.newmark
+        I = Newmark(  # noqa: E741
+            sub.model,
+            body_load(sc, mesh, sub),
+            models.dT,
+            u0,
+            v0,
+            nm.beta,
+            nm.gamma,
+            cons.l_implicit if coupled else None,
+            consistent_mass=nm.mass == "consistent",
+        )
+    system = CoupledSystem(E, I, models.ratio, cons.l_implicit if coupled else None, models.dt)
+    method: MacroStep
+    report = None
+    if coupled:
+        assert E is not None and I is not None
+        cls = method_class(models.method)
+        kwargs: dict[str, Any] = {}
+        if models.method in ("gc", "gc-mean", "hybrid"):
+            factory = _OperatorFactory(sc, models, cons)
+            kwargs["operator"] = factory(E, I, models.ratio)
+            report = factory.report
+            if models.method == "hybrid":
+                dt = models.dt
+                kwargs["refined_operator"] = lambda side: factory(E, side, round(side.dT / dt))
+        cpl = sc.coupling
+        if models.method == "hybrid" and cpl is not None:
+            kwargs.update({k: getattr(cpl, k) for k in HYBRID_KEYS if getattr(cpl, k) is not None})
+        method = cls(system, **kwargs)
+    else:
+        stride = sc.coupling.ratio if sc.coupling is not None else 1
+        alone = ExplicitAlone if E is not None else ImplicitAlone
+        method = alone(system, stride, models.n_steps)
+    force0 = None
+    if coupled and models.preload is not None:
+        assert E is not None
+        force0 = _interface_force0(mesh.comm, E)
+    return IntegratorStage(E, I, system, method, report, force0)

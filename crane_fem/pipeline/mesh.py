@@ -1,0 +1,94 @@
+"""Pipeline stage 1, scenario → mesh: the parent mesh with its named groups, the clamped
+vertices and the density of every cell."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import dolfinx
+import numpy as np
+import numpy.typing as npt
+import ufl
+from mpi4py import MPI
+
+from crane_fem.geometry import TaggedMesh, create_box_beam, create_split_bar, groups
+from crane_fem.geometry.box_beam import BoxBeam
+from crane_fem.geometry.crane import CraneMesh, create_crane_mesh
+from crane_fem.mesh import Segment
+from crane_fem.scenario import BarModel, BoxBeamModel, CraneModel, Scenario
+
+__all__ = ["MeshStage", "build_mesh", "create_tagged_mesh"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class MeshStage:
+    """The parent mesh of a scenario (collective objects over ``comm``).
+
+    Attributes:
+        tagged: the mesh and its named cell and facet groups.
+        crane: the crane mesh's extra data (wheel/rail pairs), or None.
+        fixed_vertices: global parent ids of the clamped vertices.
+        density: density of every local parent cell (ρ plus a hoisted mass spread over the
+            trolley frame), or None for a uniform ρ.
+    """
+
+    comm: MPI.Comm
+    tagged: TaggedMesh
+    crane: CraneMesh | None
+    fixed_vertices: IntArray
+    density: FloatArray | None
+
+
+def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh | CraneMesh:
+    """The parent mesh of the scenario with its named groups (collective)."""
+    mdl = sc.model
+    if isinstance(mdl, CraneModel):
+        return create_crane_mesh(comm, mdl.geometry(), mdl.mesh)
+    if isinstance(mdl, BoxBeamModel):
+        return create_box_beam(comm, BoxBeam(mdl.length, mdl.width, mdl.height, mdl.split, mdl.h))
+    assert isinstance(mdl, BarModel)
+    x0 = next((c.gap for c in sc.contact if c.type == "wall"), 0.0)
+    split = mdl.split if mdl.split is not None else mdl.length  # all cells "left"
+    return create_split_bar(comm, Segment(x0, mdl.length, mdl.elements, mdl.area), split)
+
+
+def _cell_density(sc: Scenario, tagged: TaggedMesh) -> FloatArray:
+    """Density of every local parent cell: ρ, plus the hoisted mass spread over the trolley
+    frame (carried rigidly)."""
+    mdl = sc.model
+    assert isinstance(mdl, CraneModel)
+    rho = sc.material.rho
+    msh = tagged.mesh
+    imap = msh.topology.index_map(msh.topology.dim)
+    density = np.full(imap.size_local + imap.num_ghosts, rho)
+    if mdl.hoisted_mass > 0.0:
+        tag = tagged.cell_groups["trolley_frame"]
+        dx = ufl.Measure("dx", domain=msh, subdomain_data=tagged.cell_tags)
+        one = dolfinx.fem.Constant(msh, np.float64(1.0))
+        vol = msh.comm.allreduce(
+            dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * dx(tag))), op=MPI.SUM
+        )
+        frame = tagged.cell_tags.indices[tagged.cell_tags.values == tag]
+        density[frame] += mdl.hoisted_mass / vol
+    return density
+
+
+def build_mesh(sc: Scenario, comm: MPI.Comm) -> MeshStage:
+    """Mesh the scenario's model, or read its mesh file (collective)."""
+    made = create_tagged_mesh(comm, sc)
+    crane = made if isinstance(made, CraneMesh) else None
+    tagged = made.tagged if isinstance(made, CraneMesh) else made
+    mdl = sc.model
+    if isinstance(mdl, CraneModel):
+        clamp_local = tagged.facet_vertices("clamped")
+    elif isinstance(mdl, BoxBeamModel):
+        clamp_local = tagged.facet_vertices(groups.BEAM_CLAMPED)
+    elif mdl.clamp == "right":
+        clamp_local = tagged.facet_vertices(groups.BAR_RIGHT_END)
+    else:
+        clamp_local = np.zeros(0, dtype=np.int32)
+    density = _cell_density(sc, tagged) if isinstance(mdl, CraneModel) else None
+    return MeshStage(comm, tagged, crane, tagged.global_vertices(clamp_local), density)

@@ -1,0 +1,172 @@
+"""Pipeline stage 2, mesh → models: the static preload, the subdomains (submesh, space,
+assembled operators) and the step sizes."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from crane_fem.errors import ScenarioError
+from crane_fem.pipeline.mesh import MeshStage
+from crane_fem.preload import Preload, static_preload
+from crane_fem.scenario import BarModel, Scenario
+from crane_fem.stability import critical_time_step, max_frequency
+from crane_fem.subdomains import Subdomain, create_subdomain
+
+__all__ = ["ModelStage", "build_models"]
+
+
+@dataclass(frozen=True)
+class ModelStage:
+    """The subdomains of a scenario and their steps (owns the subdomains: ``destroy``).
+
+    Attributes:
+        method, ratio: the coupling method ("monolithic" for one subdomain) and m.
+        explicit, implicit: the explicit (CD-Lagrange) and implicit (Newmark) subdomains.
+        explicit_names, implicit_names: their ``[[subdomain]]`` names.
+        preload: the crane's static self-weight state, or None.
+        dt, dT: micro and macro steps (s); dt_critical: the explicit side's critical step.
+        n_steps: steps of Δt to the end time; n_macro: macro steps.
+    """
+
+    method: str
+    ratio: int
+    explicit: Subdomain | None
+    implicit: Subdomain | None
+    explicit_names: list[str]
+    implicit_names: list[str]
+    preload: Preload | None
+    dt_critical: float
+    dt: float
+    dT: float
+    n_steps: int
+    n_macro: int
+
+    @property
+    def coupled(self) -> bool:
+        return self.explicit is not None and self.implicit is not None
+
+    def destroy(self) -> None:
+        for sub in (self.explicit, self.implicit):
+            if sub is not None:
+                sub.destroy()
+
+
+def _specs(sc: Scenario, mesh: MeshStage) -> tuple[str, int, list[tuple[str, str, list[str]]]]:
+    """(method, ratio, [(name, scheme, groups)]) of the scenario's subdomains."""
+    cpl = sc.coupling
+    if cpl is not None and cpl.method == "monolithic":
+        groups = list(mesh.tagged.cell_groups)
+        return "monolithic", 1, [("all", cpl.monolithic_scheme, groups)]
+    specs: list[tuple[str, str, list[str]]] = [
+        (s.name, str(s.scheme), list(s.groups)) for s in sc.subdomain
+    ]
+    method = str(cpl.method) if cpl is not None else "monolithic"
+    return method, (cpl.ratio if cpl is not None else 1), specs
+
+
+def _time_steps(sc: Scenario, explicit: Subdomain | None, dt_critical: float) -> float:
+    """Δt from the scenario, checked against the explicit subdomain's critical step.
+    (Monolithic Newmark: dt_factor refers to the explicit limit of the same mesh.)"""
+    if sc.time.dt is not None:
+        if explicit is not None and sc.time.dt > dt_critical:
+            raise ScenarioError(
+                f"time.dt = {sc.time.dt:.4e} s exceeds the critical step "
+                f"{dt_critical:.4e} s of explicit subdomain '{explicit.name}'"
+            )
+        return sc.time.dt
+    assert sc.time.dt_factor is not None
+    if explicit is not None and sc.time.dt_factor > 1.0:
+        raise ScenarioError(
+            f"time.dt_factor = {sc.time.dt_factor} > 1 puts Δt above the critical step "
+            f"of explicit subdomain '{explicit.name}'"
+        )
+    return sc.time.dt_factor * dt_critical
+
+
+def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
+    """Preload, subdomains and steps (collective)."""
+    mdl, mat = sc.model, sc.material
+    tagged, fixed = mesh.tagged, mesh.fixed_vertices
+    method, ratio, specs = _specs(sc, mesh)
+    area = mdl.area if isinstance(mdl, BarModel) else 1.0
+    rayleigh = mat.rayleigh_coefficients
+    preload = None
+    if mesh.crane is not None and np.any(np.asarray(sc.loading.gravity) != 0.0):
+        assert mesh.density is not None
+        preload = static_preload(
+            tagged,
+            mesh.crane.pairs,
+            mesh.crane.wheel,
+            fixed,
+            mat.E,
+            mat.nu,
+            mesh.density,
+            np.asarray(sc.loading.gravity, dtype=np.float64),
+            ["trolley_frame"] + [f"wheel_{k}" for k in range(1, 5)],
+        )
+    explicit_specs = [s for s in specs if s[1] == "cd-lagrange"]
+    implicit_specs = [s for s in specs if s[1] == "newmark"]
+    explicit = implicit = None
+    if explicit_specs:
+        explicit = create_subdomain(
+            tagged,
+            "+".join(s[0] for s in explicit_specs),
+            "cd-lagrange",
+            tagged.cells([g for s in explicit_specs for g in s[2]]),
+            mat.E,
+            mat.nu,
+            mat.rho,
+            area,
+            rayleigh,
+            fixed,
+            consistent_mass=False,
+            cell_density=mesh.density,
+        )
+    if implicit_specs:
+        implicit = create_subdomain(
+            tagged,
+            implicit_specs[0][0],
+            "newmark",
+            tagged.cells(implicit_specs[0][2]),
+            mat.E,
+            mat.nu,
+            mat.rho,
+            area,
+            rayleigh,
+            fixed,
+            consistent_mass=sc.newmark.mass == "consistent",
+            cell_density=mesh.density,
+        )
+    # Δt from the explicit subdomain's own critical step.
+    step_sub = explicit if explicit is not None else implicit
+    assert step_sub is not None
+    dt_critical = critical_time_step(max_frequency(step_sub.model), *rayleigh)
+    dt = _time_steps(sc, explicit, dt_critical)
+    coupled = explicit is not None and implicit is not None
+    n_steps = max(1, math.ceil(sc.time.end / dt - 1e-9))
+    if coupled:
+        dT = dt * ratio
+        n_macro = max(1, math.ceil(sc.time.end / dT - 1e-9))
+    else:
+        # A monolithic reference steps as the coupled run records: `ratio` steps of Δt per
+        # macro step (the two histories share one time grid).
+        dT = dt
+        stride = sc.coupling.ratio if sc.coupling is not None else 1
+        n_macro = math.ceil(n_steps / stride)
+    return ModelStage(
+        method,
+        ratio,
+        explicit,
+        implicit,
+        [s[0] for s in explicit_specs],
+        [s[0] for s in implicit_specs],
+        preload,
+        dt_critical,
+        dt,
+        dT,
+        n_steps,
+        n_macro,
+    )
