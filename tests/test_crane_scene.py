@@ -15,7 +15,7 @@ from conftest import COMM, mpiexec_env
 
 from crane_fem.cli import main
 from crane_fem.compare import compare_runs, first_landing, lift_off_episodes, pair_l2
-from crane_fem.coupling.gravouil_combescure import ENERGY_KEYS
+from crane_fem.coupling import ENERGY_KEYS
 from crane_fem.io import read_history, read_xdmf
 from crane_fem.plotting import Run, load_runs
 

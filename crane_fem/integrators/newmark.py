@@ -5,12 +5,18 @@ THEORY.md §2. With predictors Ũ = U_n + ΔT V_n + ΔT²(½ − β) A_n, Ṽ = 
     M̃ A_{n+1} = F_{n+1} − K Ũ − C Ṽ + Lᵀ Λ,   M̃ = M + γΔT C + βΔT² K,
     U_{n+1} = Ũ + βΔT² A_{n+1},   V_{n+1} = Ṽ + γΔT A_{n+1}.
 
-M̃ is assembled once and factored once (MUMPS, options prefix ``crane_fem_newmark_``). A
-step is split as in the GC coupling (THEORY.md §3): :meth:`free_step` (Λ = 0) and
-:meth:`correct` (A += M̃⁻¹ Lᵀ Λ, V += γΔT …, U += βΔT² …: one solve), with the condensed
-operator W = L M̃⁻¹ Lᵀ computed once (n_Γ solves). The columns M̃⁻¹ Lᵀ e_k are not kept: as a
-dense n_Γ × n array they cost more memory traffic per correction than the solve (measured on the
-crane: 1.0 ms against 0.8 ms per macro step at 8.7k DOFs, and they grow with the mesh).
+M̃ is assembled once and factored once (options prefix ``crane_fem_newmark_``): a sparse
+Cholesky factorisation (PETSc's own, quotient minimum degree ordering), replicated on every
+rank under MPI (PCREDUNDANT). Measured on the crane's implicit side at 35.5k DOFs
+(benchmarks/RESULTS.md, session 8): 4.3 ms per solve, at the memory bandwidth of its 4.3M-entry
+factor, against 10 ms for MUMPS LU or Cholesky (serial) and 7 ms for distributed MUMPS on two
+ranks. A step is split as in the GC coupling (THEORY.md §3): :meth:`free_step` (Λ = 0, one
+solve) and :meth:`correct` (A += M̃⁻¹ Lᵀ Λ, V += γΔT …, U += βΔT² …: one solve), with the
+condensed operator W = L M̃⁻¹ Lᵀ computed once (n_Γ solves). The columns M̃⁻¹ Lᵀ e_k are not
+kept: as a dense n_Γ × n array they cost more memory traffic per correction than the solve
+(measured on the crane: 1.0 ms against 0.8 ms per macro step at 8.7k DOFs). The initial
+acceleration with a consistent mass is one conjugate-gradient solve with M (Jacobi
+preconditioner, to 1e-14): no second factorisation.
 
 Stability: unconditionally stable iff 2β ≥ γ ≥ ½; ½ ≤ γ with 2β < γ is only conditionally
 stable (a RuntimeWarning says so); γ < ½ amplifies and is rejected.
@@ -25,6 +31,7 @@ import numpy.typing as npt
 from petsc4py import PETSc
 
 from crane_fem.contact import ContactSet
+from crane_fem.errors import CraneFemError
 from crane_fem.model import LoadFunction, StructuralModel
 
 __all__ = ["Newmark", "check_newmark_parameters"]
@@ -90,11 +97,11 @@ class Newmark:
             d = model.create_vector((1.0 + gamma * dT * alpha) * model.mass)
             self.A.setDiagonal(d, addv=True)  # addv=True: ADD_VALUES
             d.destroy()
-        self.ksp = self._lu(self.A, "crane_fem_newmark_")
+        self.ksp = self._cholesky(self.A, "crane_fem_newmark_")
         self.ksp_m = None
         if consistent_mass:
             assert model.M is not None
-            self.ksp_m = self._lu(model.M, "crane_fem_newmark_mass_")
+            self.ksp_m = self._mass_cg(model.M, "crane_fem_newmark_mass_")
 
         n = model.n_owned
         self.u = np.array(u0, dtype=np.float64)
@@ -113,14 +120,39 @@ class Newmark:
         self.W = 0.5 * (W + W.T)
         self._comm = comm
 
-    def _lu(self, mat: PETSc.Mat, prefix: str) -> PETSc.KSP:
-        ksp = PETSc.KSP().create(self.model.comm)  # type: ignore[arg-type]
+    def _cholesky(self, mat: PETSc.Mat, prefix: str) -> PETSc.KSP:
+        """A KSP applying mat⁻¹ by a sparse Cholesky factorisation (collective). Options under
+        ``prefix`` given by the user (PETSC_OPTIONS, the command line) take precedence."""
+        comm = self.model.comm
+        ksp = PETSc.KSP().create(comm)  # type: ignore[arg-type]
         ksp.setOptionsPrefix(prefix)
         ksp.setOperators(mat)
         ksp.setType("preonly")
-        pc = ksp.getPC()
-        pc.setType("lu")
-        pc.setFactorSolverType("mumps")
+        opts = PETSc.Options()
+        inner = prefix if comm.size == 1 else prefix + "redundant_"
+        defaults = {
+            "pc_type": "cholesky",
+            "pc_factor_mat_solver_type": "petsc",
+            "pc_factor_mat_ordering_type": "qmd",
+        }
+        if comm.size > 1 and not opts.hasName(prefix + "pc_type"):
+            opts[prefix + "pc_type"] = "redundant"
+        for key, value in defaults.items():
+            if not opts.hasName(inner + key):
+                opts[inner + key] = value
+        ksp.setFromOptions()
+        ksp.setUp()
+        return ksp
+
+    def _mass_cg(self, mat: PETSc.Mat, prefix: str) -> PETSc.KSP:
+        """A KSP applying M⁻¹ by conjugate gradients (Jacobi preconditioner, relative residual
+        1e-14: M is well conditioned) (collective)."""
+        ksp = PETSc.KSP().create(self.model.comm)  # type: ignore[arg-type]
+        ksp.setOptionsPrefix(prefix)
+        ksp.setOperators(mat)
+        ksp.setType("cg")
+        ksp.getPC().setType("jacobi")
+        ksp.setTolerances(rtol=1e-14, atol=0.0, max_it=1000)
         ksp.setFromOptions()
         return ksp
 
@@ -139,6 +171,11 @@ class Newmark:
         else:
             assert self.ksp_m is not None
             self.ksp_m.solve(self._vec["x"], self._vec["y"])
+            if self.ksp_m.getConvergedReason() <= 0:
+                raise CraneFemError(
+                    "Newmark: the conjugate-gradient solve with the consistent mass did not "
+                    f"converge (reason {self.ksp_m.getConvergedReason()})"
+                )
         out = self._buf["y"].copy()
         return out
 
