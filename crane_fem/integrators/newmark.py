@@ -136,10 +136,10 @@ class Newmark:
             "pc_factor_mat_ordering_type": "qmd",
         }
         if comm.size > 1 and not opts.hasName(prefix + "pc_type"):
-            opts[prefix + "pc_type"] = "redundant"
+            opts.setValue(prefix + "pc_type", "redundant")
         for key, value in defaults.items():
             if not opts.hasName(inner + key):
-                opts[inner + key] = value
+                opts.setValue(inner + key, value)
         ksp.setFromOptions()
         ksp.setUp()
         return ksp
@@ -171,10 +171,11 @@ class Newmark:
         else:
             assert self.ksp_m is not None
             self.ksp_m.solve(self._vec["x"], self._vec["y"])
-            if self.ksp_m.getConvergedReason() <= 0:
+            reason = int(self.ksp_m.getConvergedReason())
+            if reason <= 0:
                 raise CraneFemError(
                     "Newmark: the conjugate-gradient solve with the consistent mass did not "
-                    f"converge (reason {self.ksp_m.getConvergedReason()})"
+                    f"converge (reason {reason})"
                 )
         out = self._buf["y"].copy()
         return out
