@@ -25,6 +25,7 @@ stable (a RuntimeWarning says so); γ < ½ amplifies and is rejected.
 from __future__ import annotations
 
 import warnings
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -171,7 +172,7 @@ class Newmark:
         else:
             assert self.ksp_m is not None
             self.ksp_m.solve(self._vec["x"], self._vec["y"])
-            reason = int(self.ksp_m.getConvergedReason())
+            reason: Any = self.ksp_m.getConvergedReason()
             if reason <= 0:
                 raise CraneFemError(
                     "Newmark: the conjugate-gradient solve with the consistent mass did not "
