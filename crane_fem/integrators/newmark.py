@@ -106,7 +106,9 @@ class Newmark:
         # K and M in block storage for the products of every macro step (a block size of 3:
         # about twice as fast as AIJ on the crane's implicit side); copies owned here.
         self._K = model.K.convert("baij", PETSc.Mat())
-        self._M = model.M.convert("baij", PETSc.Mat()) if consistent_mass else None
+        self._M = None
+        if consistent_mass and model.M is not None:
+            self._M = model.M.convert("baij", PETSc.Mat())
         n = model.n_owned
         self.u = np.array(u0, dtype=np.float64)
         self.v = np.array(v0, dtype=np.float64)
