@@ -11,11 +11,16 @@ import meshio
 import numpy as np
 import pytest
 import pyvista as pv
-from conftest import COMM, mpiexec_env
+from conftest import (
+    COMM,
+    REFERENCE_RTOL,
+    assert_same_histories,
+    mpiexec_env,
+    reference,
+)
 
 from crane_fem.cli import main
 from crane_fem.compare import compare_runs, first_landing, lift_off_episodes, pair_l2
-from crane_fem.coupling import ENERGY_KEYS
 from crane_fem.io import read_history, read_xdmf
 from crane_fem.plotting import Run, load_runs
 
@@ -23,7 +28,6 @@ DEMOS = Path(__file__).parent.parent / "demos"
 QUICK = DEMOS / "crane_quick.toml"
 G = 9.81
 HOISTED = 200.0  # kg, demos/crane_quick.toml
-ENERGIES = {*ENERGY_KEYS, "total"}
 
 
 def _run(out: Path, *overrides: str, scene: Path = QUICK) -> dict:
@@ -32,34 +36,6 @@ def _run(out: Path, *overrides: str, scene: Path = QUICK) -> dict:
         args += ["--set", o]
     assert main(args) == 0
     return json.loads((out / "summary.json").read_text())
-
-
-def _assert_same_histories(h1: dict, h2: dict, rtol: float) -> None:
-    """Two crane histories equal to ``rtol``: energies are parts of one balance, compared to
-    its scale; gaps to the displacements, the interface velocity jump (round-off itself) to
-    the velocities; each component of the probe's displacement or velocity to that vector's
-    largest component (the probe moves vertically: its transverse velocity peaks at 0.5 % of
-    the vertical one, and the parallel run, whose distributed MUMPS solves sum in an order
-    that changes from run to run, differs from one run to the next by 5e-12 m/s there —
-    1e-8 of that component's own peak); the rest to its own largest value."""
-    assert h1.keys() == h2.keys()
-    energy = {c for c in h1 if c in ENERGIES or c.startswith(("kinetic", "internal"))}
-    e_scale = np.max(np.abs(h1["total"])) + np.max(np.abs(h1["external_work"]))
-    v_scale = max(np.max(np.abs(h1[f"wheel{k}_wheel_vz"])) for k in range(1, 5))
-    u_scale = max(np.max(np.abs(h1[f"wheel{k}_wheel_uz"])) for k in range(1, 5))
-    probe = {q: max(np.max(np.abs(h1[c])) for c in h1 if c.startswith(f"probe_{q}")) for q in "uv"}
-    for col in h1:
-        if col in energy:
-            scale = e_scale
-        elif col.startswith("gap"):
-            scale = u_scale
-        elif col == "interface_velocity_jump":
-            scale = v_scale
-        elif col.startswith("probe_"):
-            scale = probe[col[6]]
-        else:
-            scale = max(np.max(np.abs(h1[col])), 1e-300)
-        assert np.max(np.abs(h1[col] - h2[col])) <= rtol * scale, col
 
 
 def test_preload_carries_the_trolley_weight(shared_tmp) -> None:
@@ -114,6 +90,9 @@ def quick_runs(tmp_path_factory) -> Path:
 def test_quick_scene_lift_off_and_reimpact(quick_runs) -> None:
     """Both runs: the wheels lift off and re-impact, the same episodes, balance closed."""
     het, exp = sorted(load_runs(quick_runs), key=lambda r: r.summary["method"] == "monolithic")
+    # The compiled kernel's histories against the Python path's (tests/data/reference).
+    assert_same_histories(reference("quick_gc_np1"), het.history, REFERENCE_RTOL)
+    assert_same_histories(reference("quick_monolithic_np1"), exp.history, REFERENCE_RTOL)
     for run in (het, exp):
         s = run.summary
         assert s["status"] == "completed"
@@ -144,6 +123,7 @@ def test_quick_scene_hybrid_keeps_the_interface_energy(quick_runs, tmp_path) -> 
     _run(tmp_path / "hybrid", "coupling.method='hybrid'", "output.xdmf=false")
     hyb = load_runs(tmp_path / "hybrid")[0]
     exp = next(r for r in load_runs(quick_runs) if r.summary["method"] == "monolithic")
+    assert_same_histories(reference("quick_hybrid_np1"), hyb.history, REFERENCE_RTOL)
     s = hyb.summary
     assert s["status"] == "completed"
     assert s["energy_balance_error"] <= 1e-8  # as the GC run's, test above
@@ -167,6 +147,7 @@ def test_quick_scene_gc_mean_never_creates_interface_energy(quick_runs, tmp_path
     _run(tmp_path / "gc_mean", "coupling.method='gc-mean'", "output.xdmf=false")
     run = load_runs(tmp_path / "gc_mean")[0]
     exp = next(r for r in load_runs(quick_runs) if r.summary["method"] == "monolithic")
+    assert_same_histories(reference("quick_gc-mean_np1"), run.history, REFERENCE_RTOL)
     s, h = run.summary, run.history
     assert s["status"] == "completed"
     assert s["energy_balance_error"] <= 1e-8  # as the GC run's, test above
@@ -284,7 +265,26 @@ def test_quick_scene_mpiexec_same_histories(tmp_path, method) -> None:
     assert all(n > 0 for n in s2["interface_dofs_per_rank"]), s2["interface_dofs_per_rank"]
     h1, h2 = read_history(serial / "history.csv"), read_history(par / "history.csv")
     # Same algorithm, other summation order (SpMV, MUMPS, reductions): round-off only.
-    _assert_same_histories(h1, h2, 1e-8)
+    assert_same_histories(h1, h2, 1e-8)
+    # Both against the Python path's runs of the same rows (the first 0.03 s).
+    rows = h1["t"].size
+    assert_same_histories(reference(f"quick_{method}_np1", rows), h1, REFERENCE_RTOL)
+    assert_same_histories(reference(f"quick_{method}_np2", rows), h2, REFERENCE_RTOL)
+
+
+@pytest.mark.serial
+@pytest.mark.mpi
+@pytest.mark.parametrize("method", ["gc-mean", "monolithic"])
+def test_quick_scene_mpiexec_equals_the_python_path(tmp_path, method) -> None:
+    """`mpiexec -n 2` on the whole quick scene against the Python path's two-rank run of it
+    (tests/data/reference), for the methods the serial comparison does not cover there."""
+    mpiexec = Path(sys.executable).parent / "mpiexec"
+    exe = Path(sys.executable).parent / "crane-fem"
+    cmd = [str(mpiexec), "-n", "2", str(exe), "run", str(QUICK), "-o", str(tmp_path)]
+    cmd += ["--set", "output.xdmf=false", "--set", f"coupling.method='{method}'"]
+    subprocess.run(cmd, check=True, capture_output=True, env=mpiexec_env())
+    h2 = read_history(tmp_path / "history.csv")
+    assert_same_histories(reference(f"quick_{method}_np2"), h2, REFERENCE_RTOL)
 
 
 @pytest.mark.parametrize(
@@ -405,4 +405,4 @@ def test_four_explicit_subdomains_coupled_to_one_implicit(shared_tmp) -> None:
     assert four_s["dt"] == one["dt"]
     h1 = read_history(shared_tmp / "one_zone" / "history.csv")
     h4 = read_history(shared_tmp / "four_zones" / "history.csv")
-    _assert_same_histories(h1, h4, 1e-8)
+    assert_same_histories(h1, h4, 1e-8)

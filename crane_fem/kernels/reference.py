@@ -1,0 +1,119 @@
+"""The NumPy twin of :func:`crane_fem.kernels.explicit.run_steps`, for the tests.
+
+The same micro steps written with whole-array operations and SciPy (the stiffness product as
+a block sparse matrix, the constraint rows as a sparse matrix, the impulses by
+:mod:`crane_fem.contact.lcp`), serial only: it checks the compiled kernel's loops, not its MPI.
+Slow; never used by a run.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse
+
+from crane_fem.contact.lcp import solve_lcp, solve_mixed_lcp_blocks
+from crane_fem.kernels import explicit as kx
+
+__all__ = ["operator_matrix", "run_steps"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def operator_matrix(op: kx.InterfaceOp, k: float) -> FloatArray:
+    """A_k⁻¹ as a dense matrix, block by block (the twin of ``apply_operator``)."""
+    n = op.idx.size
+    out = np.zeros((n, n))
+    Qall = op.Q32.astype(np.float64) if op.single else op.Q
+    for b in range(op.ptr.size - 1):
+        a0, a1 = op.ptr[b], op.ptr[b + 1]
+        rows = op.idx[a0:a1]
+        r = int(op.rank[b])
+        Q = Qall[op.qptr[b] : op.qptr[b] + (a1 - a0) * r].reshape(a1 - a0, r)
+        s = op.s[op.sptr[b] : op.sptr[b + 1]]
+        f = 1.0 / (1.0 + 2.0 * k * op.gamma * s)
+        inner = np.eye(a1 - a0) + (Q * (f - 1.0)) @ Q.T if op.lowrank else (Q * f) @ Q.T
+        d = op.dis[a0:a1]
+        out[np.ix_(rows, rows)] = d[:, None] * inner * d[None, :]
+    return out
+
+
+def run_steps(
+    z: kx.Zone, op: kx.InterfaceOp, st: kx.ZoneState, ctl: kx.Steps, out: kx.StepsOut
+) -> None:
+    """What :func:`crane_fem.kernels.explicit.run_steps` does, on one rank."""
+    if z.nranks > 1:
+        raise ValueError("the NumPy twin runs on one rank")
+    n, p, n_g = z.n_own, z.p, z.n_g
+    n_loc = st.u.size
+    K = scipy.sparse.bsr_matrix((z.data, z.indices, z.indptr), shape=(n, n_loc)).tocsr()
+    L = scipy.sparse.csr_matrix((z.t_coeff, (z.t_row, z.t_dof)), shape=(p, n))
+    pc = p - n_g
+    out.sums[:] = 0.0
+    out.impulse_trap[:] = 0.0
+    out.impulse_sum[:] = 0.0
+    out.flags[:] = 0
+    u, vh = st.u[:n], st.vh[:n]
+    for jj in range(ctl.n):
+        h = ctl.h0 if jj == 0 else z.dt
+        if ctl.move0 or jj > 0:
+            u += z.dt * vh
+        v_old = vh.copy()
+        ku = K @ st.u
+        f = z.load_base + ctl.coef[jj] @ z.load_shapes
+        cv = z.alpha * z.mass * v_old
+        if z.beta:
+            cv = cv + z.beta * (K @ st.vh)
+        v_free = v_old + h * z.minv * (f - ku - cv)
+        lu, lo, lq = L @ u, L @ v_old, L @ v_free
+        gaps = z.g0 + lu
+        closed = gaps[n_g:] <= z.tol
+        q_c = lq[n_g:].copy()
+        lam = np.zeros(p)
+        if ctl.mode == kx.IMPOSED:
+            lam[:n_g] = z.dt * (ctl.ic[jj, 0] * ctl.imposed[0] + ctl.ic[jj, 1] * ctl.imposed[1])
+            q_c += z.W_ec.T @ lam[:n_g]
+        if ctl.law == kx.LAW_PENALTY:
+            lam[n_g:] = h * (ctl.penalty * np.maximum(-gaps[n_g:], 0.0))
+        elif ctl.law == kx.LAW_BILATERAL:
+            lam[n_g:] = -z.W_cc_inv @ q_c
+        elif ctl.mode == kx.SOLVED:
+            w_i = ctl.tc[jj, 0] * ctl.targets[0] + ctl.tc[jj, 1] * ctl.targets[1]
+            q_e = lo[:n_g] + lq[:n_g] + 2.0 * w_i
+            Ainv = operator_matrix(op, float(ctl.k_op[jj]))
+            lam[:n_g], lam[n_g:] = solve_mixed_lcp_blocks(
+                lambda x, A=Ainv: A @ x, z.W_ec, z.W_cc, q_e, q_c, closed
+            )
+        elif pc:
+            lam[n_g:] = solve_lcp(z.W_cc, q_c, closed, bool(z.cc_diagonal))
+        jump = L.T @ lam
+        lam_c = lam.copy()
+        lam_c[:n_g] = 0.0
+        jump_c = L.T @ lam_c
+        v_new = v_free + z.minv * jump
+        vh[:] = v_new
+        v_mid = 0.5 * (v_old + v_new)
+        out.sums[kx.EXT] += h * float(v_mid @ f)
+        out.sums[kx.DAMP] += h * float(v_mid @ cv)
+        out.sums[kx.CONTACT] += float(v_mid @ jump_c)
+        out.sums[kx.LINK] += float(v_mid @ (jump - jump_c))
+        out.active[jj] = bool(np.any(lam[n_g:] > 0.0))
+        if ctl.watch.size and not out.flags[kx.CHANGED] and np.any(closed != ctl.watch):
+            out.flags[kx.CHANGED] = 1
+        if n_g:
+            w = (L @ v_mid)[:n_g]
+            lbar = 0.5 * (st.lam_prev + lam[:n_g])
+            out.sums[kx.GC_WORK] += float(lbar @ (0.5 * (st.w_prev + w)))
+            out.sums[kx.PHYS_WORK] += float(lbar @ lo[:n_g])
+            out.impulse_trap += lbar
+            out.impulse_sum += lam[:n_g]
+            if ctl.keep_impulses:
+                out.impulses[jj] = lam[:n_g]
+            st.lam_prev[:] = lam[:n_g]
+            st.w_prev[:] = w
+        st.ku[:] = ku
+        if jj == ctl.n - 1:
+            st.v_int[:] = v_mid
+            out.lam[:] = lam
+            out.gaps[:] = gaps
+            out.w[:] = st.w_prev
