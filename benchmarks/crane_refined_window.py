@@ -7,7 +7,7 @@ Runs the scenario (default ``demos/crane.toml``, GC with its m) but, for the mac
 start inside [T0, T1), replaces each macro step by m / RATIO GC steps of RATIO micro steps (a
 second Newmark operator factored for the shorter step; the state (U, V, A) of average
 acceleration carries over unchanged; the refinement of the "hybrid" coupling). This is an
-experiment on the scene: it patches ``CoupledIntegrator.step`` in this process only. It
+experiment on the scene: it patches ``GravouilCombescure.step`` in this process only. It
 answers where the interface energy of the default scene is lost: during the landing (then
 refining the landing removes it) or in what the landing leaves behind (then it comes back when
 m does).
@@ -24,28 +24,40 @@ import sys
 from pathlib import Path
 
 import crane_fem._compat  # noqa: F401  (mpi4py before dolfinx)
-from crane_fem.coupling import gravouil_combescure as gcm
+from crane_fem.coupling.gravouil_combescure import GravouilCombescure
+from crane_fem.coupling.hybrid import Hybrid
+from crane_fem.coupling.operator import create_interface_operator
+from crane_fem.coupling.system import MacroRecord
 
 ROOT = Path(__file__).resolve().parent.parent
 
 
 def refine_in_window(t0: float, t1: float, ratio: int) -> None:
-    """Patch CoupledIntegrator.step: GC macro steps starting in [t0, t1) are run as m / ratio
-    GC steps of ``ratio`` micro steps each (the integrator's own refinement, that of the
-    "hybrid" coupling, docs/theory-notes.md §8)."""
-    base_step = gcm.CoupledIntegrator.step
+    """Patch GravouilCombescure.step: GC macro steps starting in [t0, t1) are run as m / ratio
+    GC steps of ``ratio`` micro steps each (the refinement of the "hybrid" coupling,
+    docs/theory-notes.md §8, borrowed from crane_fem.coupling.hybrid)."""
+    base_step = GravouilCombescure.step
+    refiners: dict[int, Hybrid] = {}
 
-    def step(self: gcm.CoupledIntegrator) -> gcm.MacroRecord:
-        if not (self.coupled and self.method == "gc" and t0 <= self.n * self.dT < t1):
+    def step(self: GravouilCombescure) -> MacroRecord:
+        s = self.system
+        if not t0 <= s.n * s.dT < t1:
             return base_step(self)
-        if self.m % ratio:
-            raise SystemExit(f"--ratio {ratio} does not divide m = {self.m}")
-        self.impact_ratio = ratio
-        lam, gaps, micro = self._gc_refined(self.n * self.dT)
-        self.n += 1
-        return self._record(lam, gaps, micro)
+        if s.m % ratio:
+            raise SystemExit(f"--ratio {ratio} does not divide m = {s.m}")
+        if id(self) not in refiners:
+            E = s.E
+            assert E is not None
 
-    gcm.CoupledIntegrator.step = step  # type: ignore[method-assign]
+            def operator(side):  # type: ignore[no-untyped-def]
+                return create_interface_operator(E.zone.w_gamma, side.W, side.gamma, ratio)[0]
+
+            refiners[id(self)] = Hybrid(s, self.op, operator, impact_ratio=ratio)
+        res = refiners[id(self)]._refined(s.n * s.dT)
+        s.n += 1
+        return s.record(res.lam, res.gaps, res.micro)
+
+    GravouilCombescure.step = step  # type: ignore[method-assign]
 
 
 def main() -> int:

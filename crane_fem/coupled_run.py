@@ -14,10 +14,10 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from crane_fem.coupling import ENERGY_KEYS, MacroRecord
-from crane_fem.driver import RunResult, finish_summary, progress_bar
 from crane_fem.errors import UnstableRunError
 from crane_fem.io import HistoryWriter, XDMFSeries
 from crane_fem.pipeline import Simulation, create_simulation
+from crane_fem.run_record import RunResult, finish_summary, progress_bar
 from crane_fem.scenario import Scenario
 from crane_fem.stability import EnergyGrowthMonitor
 from crane_fem.subdomains import Subdomain

@@ -7,28 +7,26 @@ monolithic references) run through :mod:`crane_fem.coupled_run`.
 from __future__ import annotations
 
 import math
-import sys
 import time
 import warnings
 from collections.abc import Iterator
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
-from tqdm import tqdm
 
 from crane_fem.energy import BALANCE_TERMS
 from crane_fem.errors import UnstableRunError
 from crane_fem.integrators import CDLagrange, CDPenalty, MoreauJean, StepRecord, TimeIntegrator
-from crane_fem.io import HistoryWriter, XDMFSeries, write_summary
+from crane_fem.io import HistoryWriter, XDMFSeries
 from crane_fem.problems import Problem, create_problem
+from crane_fem.run_record import RunResult, finish_summary, progress_bar
 from crane_fem.scenario import Scenario
 from crane_fem.stability import EnergyGrowthMonitor, critical_time_step, max_frequency
 
-__all__ = ["RunResult", "Simulation", "finish_summary", "progress_bar", "run_scenario"]
+__all__ = ["RunResult", "Simulation", "run_scenario"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -98,62 +96,6 @@ class Simulation:
     def destroy(self) -> None:
         self.integrator.destroy()
         self.problem.destroy()
-
-
-@dataclass
-class RunResult:
-    """Summary and the in-memory history (global values, identical on every rank)."""
-
-    summary: dict[str, Any]
-    history: dict[str, FloatArray] = field(default_factory=dict)
-
-
-def progress_bar(sc: Scenario, comm: MPI.Comm, progress: bool | None, total: int, unit: str) -> Any:
-    """tqdm bar on rank 0, shown after 2 s, off when stderr is not a terminal (unless forced)."""
-    show = progress if progress is not None else sc.output.progress
-    on = comm.rank == 0 and (sys.stderr.isatty() if show == "auto" else bool(show))
-    return tqdm(total=total, disable=not on, delay=2.0, mininterval=0.5, unit=unit, desc=sc.name)
-
-
-def finish_summary(
-    summary: dict[str, Any],
-    out: Path,
-    comm: MPI.Comm,
-    t_wall: float,
-    times: list[float],
-    active: list[bool],
-    max_drift: float,
-    scale: float,
-) -> None:
-    """Add cost, energy closure and contact intervals, then write summary.json (collective)."""
-    intervals = _contact_intervals(times, active)
-    summary.update(
-        {
-            "wall_time_s": comm.allreduce(time.perf_counter() - t_wall, op=MPI.MAX),
-            "energy_balance_error": max_drift / scale if scale > 0 else 0.0,
-            "energy_balance_error_abs": max_drift,
-            "contact_intervals": len(intervals),
-            "contact_interval_times": intervals[:100],
-        }
-    )
-    write_summary(out / "summary.json", summary, comm)
-
-
-def _contact_intervals(times: list[float], active: list[bool]) -> list[tuple[float, float]]:
-    """Maximal runs of consecutive steps with a non-zero contact impulse: (first, last) times."""
-    out: list[tuple[float, float]] = []
-    start: float | None = None
-    last = 0.0
-    for t, a in zip(times, active, strict=True):
-        if a and start is None:
-            start = t
-        if not a and start is not None:
-            out.append((start, last))
-            start = None
-        last = t
-    if start is not None:
-        out.append((start, last))
-    return out
 
 
 def run_scenario(

@@ -32,10 +32,13 @@ def _twin_zone(E: ExplicitZone) -> ExplicitZone:
     return F
 
 
-def _compare(E: ExplicitZone, ctl: kx.Steps, op: kx.InterfaceOp | None = None) -> None:
+def _compare(
+    E: ExplicitZone, ctl: kx.Steps, op: kx.InterfaceOp | None = None, rtol: float = 1e-11
+) -> None:
     """n micro steps by the kernel on E and by the twin on a copy: the same state, impulses,
-    gaps and sums to round-off (the twin sums in other orders, and solves the non-diagonal
-    LCPs with SciPy's NNLS where the kernel runs its own active-set method)."""
+    gaps and sums to round-off, ``rtol`` of each array's scale (the twin sums in other
+    orders, applies A_k⁻¹ as an assembled matrix, and solves the non-diagonal LCPs with
+    SciPy's NNLS where the kernel runs its own active-set method)."""
     F = _twin_zone(E)
     out = E.advance(ctl, op)
     ref = kx.StepsOut(
@@ -53,7 +56,7 @@ def _compare(E: ExplicitZone, ctl: kx.Steps, op: kx.InterfaceOp | None = None) -
 
     def close(a: np.ndarray, b: np.ndarray, what: str) -> None:
         scale = max(float(np.max(np.abs(b), initial=0.0)), 1e-300)
-        assert np.max(np.abs(a - b), initial=0.0) <= 1e-11 * scale, what
+        assert np.max(np.abs(a - b), initial=0.0) <= rtol * scale, what
 
     for name in ("u", "vh", "v_int", "ku"):
         close(getattr(E, name), getattr(F, name), name)
@@ -66,9 +69,9 @@ def _compare(E: ExplicitZone, ctl: kx.Steps, op: kx.InterfaceOp | None = None) -
     assert np.array_equal(out.active, ref.active)
     assert np.array_equal(out.flags, ref.flags)
     energy = max(float(np.max(np.abs(ref.sums[:4]))), 1e-300)
-    assert np.max(np.abs(out.sums[:4] - ref.sums[:4])) <= 1e-11 * energy
+    assert np.max(np.abs(out.sums[:4] - ref.sums[:4])) <= rtol * energy
     link = max(float(np.max(np.abs(ref.sums[4:]))), 1e-300)
-    assert np.max(np.abs(out.sums[4:] - ref.sums[4:])) <= 1e-11 * link
+    assert np.max(np.abs(out.sums[4:] - ref.sums[4:])) <= rtol * link
     assert any(np.any(a != 0.0) for a in (E.u, E.vh))  # something moved
     F.destroy()
 
@@ -82,23 +85,21 @@ def _bar(**kw) -> ExplicitZone:
 @pytest.mark.parametrize("beta", [0.0, 1e-4])
 def test_bar_on_the_wall_exact_contact_and_damping(beta) -> None:
     """1D bar hitting the wall (bs = 1), mass and stiffness proportional damping."""
-    E = _bar(
-        material={"E": 1.0, "rho": 1.0, "rayleigh": [0.3, beta]}, time={"end": 0.5, "dt": 2e-3}
-    )
+    E = _bar(material={"E": 1.0, "rho": 1.0, "rayleigh": [0.3, beta]}, time={"end": 0.5})
     n = 120  # past the impact at t = 0.1
     _compare(E, E.steps(0.0, n, h0=0.5 * E.dt, move0=False))
     _compare(E, E.steps(n * E.dt, 50))
 
 
 def test_bar_penalty_law() -> None:
-    E = _bar(time={"end": 0.5, "dt": 2e-3})
+    E = _bar(time={"end": 0.5})
     _compare(E, E.steps(0.0, 150, law=kx.LAW_PENALTY, penalty=50.0))
 
 
 def test_coupled_contacts_and_an_interface_row_on_a_contact_dof() -> None:
     """A bar with non-diagonal contact rows (two rows on one DOF) and an interface row on the
     wall DOF (W_Γc ≠ 0): the mixed LCP through the Schur complement, solved and imposed."""
-    E = _bar(time={"end": 0.5, "dt": 2e-3})
+    E = _bar(time={"end": 0.5})
     c = E.contacts
     d0 = int(c.dofs[0])
     contacts = ContactSet(
@@ -182,7 +183,10 @@ def test_crane_zone_gc_micro_steps(crane_zone, form) -> None:
         k_op=j.astype(float),
         watch=np.ones(E.contacts.p, bool),
     )
-    _compare(E, ctl, op)
+    # The interface rows are solved 100 times with A_k of condition up to ~1e2 (the kernel by
+    # two products with Q, the twin with the assembled inverse): their round-off reaches the
+    # velocities at 5e-11 of their scale after the 100 micro steps (measured); 1e-9 bounds it.
+    _compare(E, ctl, op, rtol=1e-9)
     E.restore(state)
 
 

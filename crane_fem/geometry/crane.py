@@ -458,6 +458,17 @@ def mesh_info() -> CraneMeshInfo:
     }
     volume_groups = {n: t for (d, t), n in names.items() if d == 3}
     surface_groups = {n: t for (d, t), n in names.items() if d == 2}
+    for dim, wanted, have in (
+        (3, _VOLUME_NAMES, volume_groups),
+        (2, _SURFACE_NAMES, surface_groups),
+    ):
+        missing = [n for n in wanted if n not in have]
+        if missing:
+            kind = "volume" if dim == 3 else "surface"
+            raise ScenarioError(
+                f"not a crane mesh: no {kind} group {missing[0]!r} (a crane mesh has "
+                f"{', '.join(wanted)}; write one with crane-fem mesh)"
+            )
     contact_pairs = []
     for k in range(1, 5):
         name = f"wheel_patch_{k}"

@@ -81,9 +81,11 @@ def run_steps(
             w_i = ctl.tc[jj, 0] * ctl.targets[0] + ctl.tc[jj, 1] * ctl.targets[1]
             q_e = lo[:n_g] + lq[:n_g] + 2.0 * w_i
             Ainv = operator_matrix(op, float(ctl.k_op[jj]))
-            lam[:n_g], lam[n_g:] = solve_mixed_lcp_blocks(
-                lambda x, A=Ainv: A @ x, z.W_ec, z.W_cc, q_e, q_c, closed
-            )
+
+            def solve(x: FloatArray, A: FloatArray = Ainv) -> FloatArray:
+                return np.asarray(A @ x)
+
+            lam[:n_g], lam[n_g:] = solve_mixed_lcp_blocks(solve, z.W_ec, z.W_cc, q_e, q_c, closed)
         elif pc:
             lam[n_g:] = solve_lcp(z.W_cc, q_c, closed, bool(z.cc_diagonal))
         jump = L.T @ lam
@@ -105,8 +107,8 @@ def run_steps(
             lbar = 0.5 * (st.lam_prev + lam[:n_g])
             out.sums[kx.GC_WORK] += float(lbar @ (0.5 * (st.w_prev + w)))
             out.sums[kx.PHYS_WORK] += float(lbar @ lo[:n_g])
-            out.impulse_trap += lbar
-            out.impulse_sum += lam[:n_g]
+            out.impulse_trap[:] += lbar
+            out.impulse_sum[:] += lam[:n_g]
             if ctl.keep_impulses:
                 out.impulses[jj] = lam[:n_g]
             st.lam_prev[:] = lam[:n_g]

@@ -1,0 +1,241 @@
+"""The stiffness product of the explicit kernel fused with the free velocity update (THEORY.md
+§1, (1.2)) and its energy sums: one pass over the block CSR stiffness per micro step, in
+PETSc's summation order (bs = 3 blocks, bs = 1 scalars; any bs with stiffness damping)."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+import numpy.typing as npt
+
+from crane_fem.kernels.zone import Zone, ZoneState
+
+__all__ = ["free_rows", "load_at", "stiffness_velocity"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+
+@numba.njit(cache=True, inline="always")
+def load_at(z: Zone, coef: FloatArray, i: int) -> float:
+    f = z.load_base[i]
+    for k in range(coef.size):
+        f = f + coef[k] * z.load_shapes[k, i]
+    return f
+
+
+@numba.njit(cache=True)
+def stiffness_velocity(z: Zone, st: ZoneState) -> None:
+    """K V_{j−1/2} on the owned rows into ``st.kv`` (stiffness-proportional damping only; V's
+    ghosts exchanged before)."""
+    bs = z.bs
+    for r in range(z.indptr.size - 1):
+        for a in range(bs):
+            s = 0.0
+            for jj in range(z.indptr[r], z.indptr[r + 1]):
+                c = bs * z.indices[jj]
+                for b in range(bs):
+                    s += z.data[jj, a, b] * st.vh[c + b]
+            st.kv[bs * r + a] = s
+
+
+@numba.njit(cache=True)
+def _rows3(
+    indptr: IntArray,
+    indices: IntArray,
+    data: FloatArray,
+    u: FloatArray,
+    vh: FloatArray,
+    ku_out: FloatArray,
+    minv: FloatArray,
+    mass: FloatArray,
+    base: FloatArray,
+    shapes: FloatArray,
+    coef: FloatArray,
+    alpha: float,
+    h: float,
+    rows: IntArray,
+) -> tuple[float, float]:
+    """:func:`free_rows` for bs = 3 without stiffness damping, on arrays only: one pass over K
+    (at the memory bandwidth on the stress-grade crane), the update written out per
+    component, the energy sums accumulated per block row."""
+    ext = 0.0
+    damp = 0.0
+    n_shape = coef.size
+    for rr in range(rows.size):
+        r = rows[rr]
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        for jj in range(indptr[r], indptr[r + 1]):
+            c = 3 * indices[jj]
+            x0 = u[c]
+            x1 = u[c + 1]
+            x2 = u[c + 2]
+            # PETSc's MatMult_SeqBAIJ_3 order: sum += (v0 x0 + v1 x1) + v2 x2 per row.
+            s0 += data[jj, 0, 0] * x0 + data[jj, 0, 1] * x1 + data[jj, 0, 2] * x2
+            s1 += data[jj, 1, 0] * x0 + data[jj, 1, 1] * x1 + data[jj, 1, 2] * x2
+            s2 += data[jj, 2, 0] * x0 + data[jj, 2, 1] * x1 + data[jj, 2, 2] * x2
+        i = 3 * r
+        f0 = base[i]
+        f1 = base[i + 1]
+        f2 = base[i + 2]
+        for k in range(n_shape):
+            ck = coef[k]
+            f0 = f0 + ck * shapes[k, i]
+            f1 = f1 + ck * shapes[k, i + 1]
+            f2 = f2 + ck * shapes[k, i + 2]
+        v0 = vh[i]
+        v1 = vh[i + 1]
+        v2 = vh[i + 2]
+        c0 = alpha * mass[i] * v0
+        c1 = alpha * mass[i + 1] * v1
+        c2 = alpha * mass[i + 2] * v2
+        w0 = v0 + h * minv[i] * (f0 - s0 - c0)
+        w1 = v1 + h * minv[i + 1] * (f1 - s1 - c1)
+        w2 = v2 + h * minv[i + 2] * (f2 - s2 - c2)
+        vh[i] = w0
+        vh[i + 1] = w1
+        vh[i + 2] = w2
+        ku_out[i] = s0
+        ku_out[i + 1] = s1
+        ku_out[i + 2] = s2
+        ext += ((v0 + w0) * f0 + (v1 + w1) * f1) + (v2 + w2) * f2
+        damp += ((v0 + w0) * c0 + (v1 + w1) * c1) + (v2 + w2) * c2
+    return ext, damp
+
+
+@numba.njit(cache=True)
+def _rows1(
+    indptr: IntArray,
+    indices: IntArray,
+    data: FloatArray,
+    u: FloatArray,
+    vh: FloatArray,
+    ku_out: FloatArray,
+    minv: FloatArray,
+    mass: FloatArray,
+    base: FloatArray,
+    shapes: FloatArray,
+    coef: FloatArray,
+    alpha: float,
+    h: float,
+    rows: IntArray,
+) -> tuple[float, float]:
+    """:func:`_rows3` for bs = 1 (bars): scalar rows, PETSc's AIJ summation order."""
+    ext = 0.0
+    damp = 0.0
+    n_shape = coef.size
+    for rr in range(rows.size):
+        i = rows[rr]
+        s = 0.0
+        for jj in range(indptr[i], indptr[i + 1]):
+            s += data[jj, 0, 0] * u[indices[jj]]
+        f = base[i]
+        for k in range(n_shape):
+            f = f + coef[k] * shapes[k, i]
+        v = vh[i]
+        c = alpha * mass[i] * v
+        w = v + h * minv[i] * (f - s - c)
+        vh[i] = w
+        ku_out[i] = s
+        ext += (v + w) * f
+        damp += (v + w) * c
+    return ext, damp
+
+
+@numba.njit(cache=True)
+def free_rows(
+    z: Zone, st: ZoneState, rows: IntArray, coef: FloatArray, h: float, last: bool
+) -> tuple[float, float]:
+    """Fused K U, free velocity (1.2) and energy sums over the block ``rows`` (V is updated in
+    place: the product reads U only). Returns Σ (V_old + V_free)·F and Σ (V_old + V_free)·C
+    V_old over them. (The arrays are taken out of the tuples first: helpers that receive the
+    tuples, even inlined, made this loop 50× slower.)"""
+    if z.bs == 1 and z.beta == 0.0:
+        return _rows1(
+            z.indptr,
+            z.indices,
+            z.data,
+            st.u,
+            st.vh,
+            st.ku,
+            z.minv,
+            z.mass,
+            z.load_base,
+            z.load_shapes,
+            coef,
+            z.alpha,
+            h,
+            rows,
+        )
+    if z.bs == 3 and z.beta == 0.0:
+        return _rows3(
+            z.indptr,
+            z.indices,
+            z.data,
+            st.u,
+            st.vh,
+            st.ku,
+            z.minv,
+            z.mass,
+            z.load_base,
+            z.load_shapes,
+            coef,
+            z.alpha,
+            h,
+            rows,
+        )
+    u, vh, ku_out, kv = st.u, st.vh, st.ku, st.kv
+    data, indices, indptr = z.data, z.indices, z.indptr
+    mass, minv, base, shapes = z.mass, z.minv, z.load_base, z.load_shapes
+    alpha, beta, bs = z.alpha, z.beta, z.bs
+    n_shape = coef.size
+    ext = 0.0
+    damp = 0.0
+    ks = np.zeros(bs)
+    for rr in range(rows.size):
+        r = rows[rr]
+        if bs == 3:
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+            for jj in range(indptr[r], indptr[r + 1]):
+                c = 3 * indices[jj]
+                x0 = u[c]
+                x1 = u[c + 1]
+                x2 = u[c + 2]
+                # PETSc's MatMult_SeqBAIJ_3 order: sum += (v0 x0 + v1 x1) + v2 x2 per row.
+                s0 += data[jj, 0, 0] * x0 + data[jj, 0, 1] * x1 + data[jj, 0, 2] * x2
+                s1 += data[jj, 1, 0] * x0 + data[jj, 1, 1] * x1 + data[jj, 1, 2] * x2
+                s2 += data[jj, 2, 0] * x0 + data[jj, 2, 1] * x1 + data[jj, 2, 2] * x2
+            ks[0] = s0
+            ks[1] = s1
+            ks[2] = s2
+        else:
+            for a in range(bs):
+                s = 0.0
+                for jj in range(indptr[r], indptr[r + 1]):
+                    c = bs * indices[jj]
+                    t = 0.0
+                    for b in range(bs):
+                        t += data[jj, a, b] * u[c + b]
+                    s += t
+                ks[a] = s
+        for a in range(bs):
+            i = bs * r + a
+            ku = ks[a]
+            f = base[i]
+            for k in range(n_shape):
+                f = f + coef[k] * shapes[k, i]
+            v_old = vh[i]
+            cv = alpha * mass[i] * v_old
+            if beta != 0.0:
+                cv = cv + beta * kv[i]
+            v_free = v_old + h * minv[i] * (f - ku - cv)
+            vh[i] = v_free
+            if last:
+                ku_out[i] = ku
+            ext += (v_old + v_free) * f
+            damp += (v_old + v_free) * cv
+    return ext, damp

@@ -1,0 +1,181 @@
+"""The arrays the explicit kernel works on, as typed tuples: an explicit subdomain's static data
+(:class:`Zone`), its evolving state (:class:`ZoneState`), the interface operator
+(:class:`InterfaceOp`), what one call integrates (:class:`Steps`) and returns
+(:class:`StepsOut`), and the constants that select the kernel's branches."""
+
+from __future__ import annotations
+
+from typing import Any, NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = [
+    "CHANGED",
+    "CONTACT",
+    "DAMP",
+    "EXT",
+    "GC_WORK",
+    "IMPOSED",
+    "LAW_BILATERAL",
+    "LAW_LCP",
+    "LAW_PENALTY",
+    "LCP_ERROR",
+    "LINK",
+    "MPI_ERROR",
+    "NONE",
+    "PHYS_WORK",
+    "SOLVED",
+    "InterfaceOp",
+    "Steps",
+    "StepsOut",
+    "Zone",
+    "ZoneState",
+]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
+
+#: Interface rows: none (a lone explicit subdomain), solved each micro step, or imposed.
+NONE, SOLVED, IMPOSED = 0, 1, 2
+#: Contact law: the exact LCP (CD-Lagrange), a penalty spring, or bilateral rows.
+LAW_LCP, LAW_PENALTY, LAW_BILATERAL = 0, 1, 2
+#: Indices of :attr:`StepsOut.sums`.
+EXT, DAMP, CONTACT, LINK, GC_WORK, PHYS_WORK = range(6)
+#: Indices of :attr:`StepsOut.flags`.
+CHANGED, MPI_ERROR, LCP_ERROR = range(3)
+
+
+class Zone(NamedTuple):
+    """The static arrays of an explicit subdomain (built once)."""
+
+    bs: int
+    n_own: int
+    dt: float
+    #: K in block CSR over the owned block rows; ``data`` is (nnzb, bs, bs) row-major.
+    indptr: IntArray
+    indices: IntArray
+    data: FloatArray
+    #: Block rows with owned columns only, and those with a ghost column.
+    inner: IntArray
+    boundary: IntArray
+    mass: FloatArray
+    minv: FloatArray
+    alpha: float
+    beta: float
+    #: F(t) = base + Σ_k c_k(t) shapes[k].
+    load_base: FloatArray
+    load_shapes: FloatArray
+    #: Stacked constraint rows: n_g interface rows, then p − n_g contact points; terms
+    #: (row, owned DOF, coefficient), and the position of each term's DOF in ``c_dofs``.
+    p: int
+    n_g: int
+    t_row: IntArray
+    t_dof: IntArray
+    t_coeff: FloatArray
+    t_pos: IntArray
+    c_dofs: IntArray
+    g0: FloatArray
+    tol: float
+    #: Delassus blocks: diag of W_ΓΓ, W_cc (and its inverse for bilateral rows), W_Γc.
+    w_gamma: FloatArray
+    W_cc: FloatArray
+    W_cc_inv: FloatArray
+    W_ec: FloatArray
+    cc_diagonal: bool
+    ec_zero: bool
+    #: MPI: (comm, MPI_DOUBLE, MPI_SUM) handles, size, neighbours, and the halo pattern in
+    #: DOFs (values sent from ``send_idx``, received into ``recv_idx``).
+    mpi: IntArray
+    nranks: int
+    neighbours: npt.NDArray[np.int32]
+    send_ptr: IntArray
+    send_idx: IntArray
+    recv_ptr: IntArray
+    recv_idx: IntArray
+
+
+class ZoneState(NamedTuple):
+    """The evolving arrays of an explicit subdomain and the kernel's scratch space."""
+
+    u: FloatArray  # U, owned then ghost DOFs
+    vh: FloatArray  # V_{j+1/2}, owned then ghost DOFs
+    ku: FloatArray  # K U of the last micro step (owned)
+    kv: FloatArray  # K V_{j−1/2} (owned; size 0 without stiffness damping)
+    v_int: FloatArray  # V_j = ½ (V_{j−1/2} + V_{j+1/2}) of the last micro step (owned)
+    lam_prev: FloatArray  # interface impulses Λ̂ of the previous micro step (n_g)
+    w_prev: FloatArray  # L_E V at the previous micro step (n_g)
+    vold_c: FloatArray  # V_{j−1/2} at the constraint DOFs
+    jump: FloatArray  # Lᵀ Λ at the constraint DOFs
+    jump_c: FloatArray  # its contact part
+    red: FloatArray  # (3p) local L U, L V_{j−1/2}, L V_free
+    red_out: FloatArray  # the same, global
+    lam: FloatArray  # (p)
+    qe: FloatArray  # (n_g) interface right-hand side
+    qc: FloatArray  # (p − n_g) contact right-hand side
+    work: FloatArray  # (n_g) operator scratch
+    send_buf: FloatArray
+    recv_buf: FloatArray
+    requests: npt.NDArray[Any]
+
+
+class InterfaceOp(NamedTuple):
+    """The micro-step interface operator A_k = W_E,ΓΓ + 2kγ W_I, inverted through blocks
+    ``b`` of rows ``idx[ptr[b]:ptr[b+1]]``: A_k⁻¹ = D^-½ Q_b diag(1/(1 + 2kγ s_b)) Q_bᵀ D^-½,
+    or with ``lowrank``, D^-½ (I + Q_b diag(1/(1 + 2kγ s_b) − 1) Q_bᵀ) D^-½ with the modes of
+    negligible s dropped (crane_fem.coupling.operator)."""
+
+    gamma: float
+    idx: IntArray
+    ptr: IntArray
+    dis: FloatArray  # D^-½ in ``idx`` order
+    Q: FloatArray  # per block, n_b × r_b row-major, flattened
+    Q32: npt.NDArray[np.float32]  # the same in single precision, when ``single``
+    qptr: IntArray
+    rank: IntArray
+    s: FloatArray
+    sptr: IntArray
+    lowrank: bool
+    single: bool
+
+
+class Steps(NamedTuple):
+    """What one call integrates: ``n`` micro steps; the first with ``h0`` (Δt or Δt/2) and
+    moving U or not (the start). Interface: ``mode``; targets w_I,j = tc[j,0] targets[0] +
+    tc[j,1] targets[1] and operator step k_op[j] (SOLVED), or impulses Δt (ic[j,0] imposed[0]
+    + ic[j,1] imposed[1]) (IMPOSED). ``watch``: the contact points closed at the start (flag
+    a change), or empty."""
+
+    n: int
+    h0: float
+    move0: bool
+    coef: FloatArray  # (n, n_shape) load coefficients at t_j
+    mode: int
+    law: int
+    penalty: float
+    tc: FloatArray  # (n, 2)
+    targets: FloatArray  # (2, n_g)
+    k_op: FloatArray  # (n,)
+    ic: FloatArray  # (n, 2)
+    imposed: FloatArray  # (2, n_g)
+    watch: BoolArray
+    keep_impulses: bool
+
+
+class StepsOut(NamedTuple):
+    """What a call returns: the last micro step's impulses and gaps (all stacked rows), per
+    micro step whether a contact impulse acted, the energy sums (local: external, damping,
+    contact and link work; global: the GC-measure and physical interface work), the interface
+    impulses summed (trapezoid and plain), each micro step's (``keep_impulses``), L_E V at the
+    last micro step, and flags (contact set changed, MPI error, singular LCP)."""
+
+    lam: FloatArray
+    gaps: FloatArray
+    active: BoolArray
+    sums: FloatArray
+    impulse_trap: FloatArray
+    impulse_sum: FloatArray
+    impulses: FloatArray
+    w: FloatArray
+    flags: IntArray
