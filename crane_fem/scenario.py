@@ -346,10 +346,10 @@ class Coupling(_Section):
     #: mechanical energy (kinetic + internal) is redone with ``impact_ratio``.
     interface_tolerance: PositiveFloat | None = None
     #: gc, gc-mean, hybrid: the micro-step interface operator inverted by "bodies" (one block
-    #: per connected body of the implicit side: exact) or by "zones" (also one block per
-    #: connected explicit zone: the zones' coupling through the implicit side within a macro
-    #: step dropped; crane_fem.coupling.operator).
-    interface_blocks: Literal["bodies", "zones"] | None = None
+    #: per connected body of the implicit side: exact), as "one" block (exact, slower), or by
+    #: "zones" (also one block per connected explicit zone: the zones' coupling through the
+    #: implicit side within a macro step dropped; crane_fem.coupling.operator).
+    interface_blocks: Literal["bodies", "one", "zones"] | None = None
     #: gc, gc-mean, hybrid: the operator's eigenvectors in "double" (exact) or "single"
     #: precision (half the memory traffic; sums stay in double).
     interface_precision: Literal["double", "single"] | None = None

@@ -82,6 +82,8 @@ class _OperatorFactory:
         assert models.explicit is not None and models.implicit is not None
         cpl = sc.coupling
         blocks = zone_labels(models.implicit, cons.interface_vertices)
+        if cpl is not None and cpl.interface_blocks == "one":
+            blocks = np.zeros_like(blocks)
         if cpl is not None and cpl.interface_blocks == "zones":
             zones = zone_labels(models.explicit, cons.interface_vertices)
             blocks = blocks * (int(zones.max()) + 1) + zones
