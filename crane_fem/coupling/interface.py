@@ -74,15 +74,17 @@ def build_interface(
 
 
 def zone_labels(explicit: Subdomain, vertices: IntArray) -> IntArray:
-    """The connected explicit zone of each interface row (``k·bs + c`` for ``vertices[k]``):
-    0, 1, … in the order of the zones' smallest vertex (collective; the cells' vertices are
-    gathered on every rank, the zones being small by design)."""
+    """The connected component of ``explicit`` (any subdomain) that holds each interface row
+    (``k·bs + c`` for ``vertices[k]``): 0, 1, … in the order of the components' smallest
+    vertex (collective; the cells' vertices are gathered on every rank: the explicit zones
+    are small by design, the implicit side's cells are gathered once at set-up)."""
     msh = explicit.submesh
     tdim = msh.topology.dim
     msh.topology.create_connectivity(tdim, 0)
     n_cells = msh.topology.index_map(tdim).size_local
     c2v = msh.topology.connectivity(tdim, 0)
-    local = explicit.vertex_global[c2v.array[: c2v.offsets[n_cells]]].reshape(n_cells, -1)
+    nv = tdim + 1  # simplices
+    local = explicit.vertex_global[c2v.array[: c2v.offsets[n_cells]]].reshape(n_cells, nv)
     cells = np.concatenate(msh.comm.allgather(local.astype(np.int64)))
     ids, inv = np.unique(cells, return_inverse=True)
     inv = inv.reshape(cells.shape)
