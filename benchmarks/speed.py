@@ -274,6 +274,11 @@ def main() -> int:
     parser.add_argument("-o", "--output", default=str(ROOT / "out" / "bench_speed"))
     parser.add_argument("--quick", action="store_true", help="fewer runs, shorter windows")
     parser.add_argument("--skip-sweep", action="store_true")
+    parser.add_argument(
+        "--tables",
+        action="store_true",
+        help="print the tables and redraw the figure of the last run",
+    )
     args, extra = parser.parse_known_args()
     if args.part:
         import crane_fem  # noqa: F401  (MPI before dolfinx)
@@ -285,6 +290,11 @@ def main() -> int:
             part_explicit(rest[0], int(rest[1]), [*rest[2:], *extra])
         elif kind == "coupled":
             part_coupled(rest[0], int(rest[1]), [*rest[2:], *extra])
+        return 0
+    if args.tables:
+        res = json.loads((RESULTS / "speed.json").read_text())
+        _tables(res)
+        _figures(res)
         return 0
     return _report(Path(args.output), args.quick, args.skip_sweep)
 
@@ -533,6 +543,28 @@ def _tables(res: dict[str, Any]) -> None:
                 f"{r['rest_s'] * us:.1f}",
                 f"{r['solve_s'] * 1e3:.2f}",
                 f"{ratio:.2f}",
+            )
+        )
+    print()
+    head = ("scene (whole run)", "np", "run", "m", "time loop s", "explicit s", "speed-up")
+    print(_md(*head, "pair L2 to 1st landing, wheel / rail", "whole run", "lift-offs", "E_Γ/W"))
+    print(_md(*["---"] * 11))
+    for r in res.get("scenes", []):
+        to = r["pair_l2_to_landing"].values()
+        wh = r["pair_l2_whole"].values()
+        print(
+            _md(
+                r["scene"],
+                r["np"],
+                r["case"],
+                r["m"],
+                f"{r['integration_s']:.1f}",
+                f"{r['explicit_integration_s']:.1f}",
+                f"{r['speedup']:.2f}",
+                f"{100 * max(v[0] for v in to):.2f} / {100 * max(v[1] for v in to):.2f} %",
+                f"{100 * max(v[0] for v in wh):.1f} / {100 * max(v[1] for v in wh):.1f} %",
+                f"{r['lift_offs'][0]} / {r['lift_offs'][1]}",
+                f"{100 * r['interface_energy_over_work']:.1f} %",
             )
         )
     print()
