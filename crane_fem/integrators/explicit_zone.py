@@ -241,6 +241,8 @@ class ExplicitZone:
             requests=create_requests(2 * nbrs.size),
         )
         self._no_op = empty_operator(n_g)
+        # Compile (or load from the cache) the kernel now, in the set-up: a call of no step.
+        self.advance(self.steps(0.0, 0))
 
     # ---------------------------------------------------------------------------------
     @property
