@@ -168,12 +168,12 @@ class EnergyConserving(MethodBase):
         non-convergence is an error."""
         s = self.system
         I = s.I  # noqa: E741
-        assert I is not None and s.LI is not None
-        n_g, dT = s.n_gamma, s.dT
+        assert I is not None
+        dT = s.dT
         t1 = t0 + dT
         factor = self._factor(closed)
         st = s.trapezoid_start(t0)
-        r_I = s.LI.apply(st.du_free)[:n_g]
+        r_I = I.interface_values(st.du_free)
         start = s.snapshot()  # each pass starts from t0
         G = s.lam_macro_prev.copy()  # predictor: the previous macro step's G
         for k in range(self.max_passes):

@@ -39,11 +39,11 @@ class GCMean(MethodBase):
     def step(self) -> MacroRecord:
         s = self.system
         E, I = s.E, s.I  # noqa: E741
-        assert E is not None and I is not None and s.LI is not None
-        n_g, m, dT = s.n_gamma, s.m, s.dT
+        assert E is not None and I is not None
+        m, dT = s.m, s.dT
         t0 = s.n * dT
         st = s.trapezoid_start(t0)
-        a = s.LI.apply(st.du_free)[:n_g] / dT
+        a = I.interface_values(st.du_free) / dT
         j = np.arange(1, m + 1)
         ctl = E.steps(
             t0,

@@ -71,13 +71,13 @@ class GravouilCombescure(MethodBase):
         energy terms (collective). ``watch``: contact points closed at t0, to flag a change."""
         s = self.system
         E, I, m, n_g = s.E, s.I, s.m, s.n_gamma  # noqa: E741
-        assert E is not None and I is not None and s.LI is not None
+        assert E is not None and I is not None
         t1 = t0 + s.dT
         cv0 = s.damping_now()
         uf, vf, af = I.free_step(t1)
         uI0, vI0 = I.u.copy(), I.v.copy()
         f0 = I.load(t0)
-        wI0, wIf = s.LI.apply(vI0)[:n_g], s.LI.apply(vf)[:n_g]
+        wI0, wIf = I.interface_values(vI0), I.interface_values(vf)
         j = np.arange(1, m + 1)
         ctl = E.steps(
             t0,

@@ -67,14 +67,14 @@ class Hybrid(MethodBase):
         rank)."""
         s = self.system
         E, I = s.E, s.I  # noqa: E741
-        assert E is not None and I is not None and s.LI is not None
+        assert E is not None and I is not None
         t0 = s.n * s.dT
         closed = E.contacts.closed(s.contact_gaps())
         if not np.any(closed):
             res = self.ec.macro(t0, closed, fallback=True)
             if res is not None:
                 # The next step may be GC: the acceleration at t0 + ΔT under the force G.
-                I.initialize(t0 + s.dT, s.LI.transpose(res.G, I.model.n_owned))
+                I.initialize(t0 + s.dT, I.interface_force(res.G))
                 self.steps_taken["ec"] += 1
                 return self.ec.record(res)
         snap = s.snapshot() if self.impact_ratio < s.m else None
@@ -98,9 +98,7 @@ class Hybrid(MethodBase):
         I, m, r = s.I, s.m, self.impact_ratio  # noqa: E741
         assert I is not None
         if self._fine is None:
-            fine_side = Newmark(
-                I.model, I.load, r * s.dt, I.u, I.v, I.beta, I.gamma, I.interface, I.consistent
-            )
+            fine_side = I.refined(r * s.dt)
             self._fine = (fine_side, GravouilCombescure(s, self._refined_operator(fine_side)))
         fine, gc_fine = self._fine
         fine.u, fine.v, fine.a = I.u.copy(), I.v.copy(), I.a.copy()

@@ -99,14 +99,14 @@ class PrakashHjelmstad(MethodBase):
     def step(self) -> MacroRecord:
         s = self.system
         E, I, m, n_g = s.E, s.I, s.m, s.n_gamma  # noqa: E741
-        assert E is not None and I is not None and s.LI is not None
+        assert E is not None and I is not None
         t0 = s.n * s.dT
         t1 = t0 + s.dT
         cv0 = s.damping_now()
         uf, vf, af = I.free_step(t1)
         uI0, vI0 = I.u.copy(), I.v.copy()
         f0 = I.load(t0)
-        wIf = s.LI.apply(vf)[:n_g]
+        wIf = I.interface_values(vf)
         lam_m = self._solve(t0, wIf)
         j = np.arange(1, m + 1)
         ctl = E.steps(

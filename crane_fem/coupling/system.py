@@ -10,13 +10,13 @@ books of each side and of the interface, the trapezoidal form of the implicit st
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 
-from crane_fem.contact import ContactSet
 from crane_fem.energy import BALANCE_TERMS
 from crane_fem.integrators.explicit_zone import ExplicitZone, ZoneSnapshot
 from crane_fem.integrators.newmark import Newmark
@@ -53,8 +53,9 @@ class MacroRecord:
     energy: dict[str, float]
     explicit_u: FloatArray | None
     explicit_v: FloatArray | None
-    implicit_u: FloatArray | None
-    implicit_v: FloatArray | None
+    #: The implicit side's displacement and velocity as fields on its owned DOFs, made on
+    #: demand (a reduced side expands its coordinates only for the records that need them).
+    implicit_fields: Callable[[], tuple[FloatArray, FloatArray]] | None
     contact_impulse: FloatArray
     gaps: FloatArray
     interface_impulse: FloatArray
@@ -66,6 +67,24 @@ class MacroRecord:
     #: macro-step multipliers only; ec: Σ ΔT G): momentum one side received and the other
     #: did not. Zero for m = 1, and for ec.
     impulse_defect: float = 0.0
+    #: max |L_E V_E + L_I V_I| at t (m/s): the velocity continuity left, round-off for GC.
+    interface_velocity_jump: float = 0.0
+    _fields: tuple[FloatArray, FloatArray] | None = None
+
+    def _implicit(self) -> tuple[FloatArray, FloatArray] | None:
+        if self._fields is None and self.implicit_fields is not None:
+            self._fields = self.implicit_fields()
+        return self._fields
+
+    @property
+    def implicit_u(self) -> FloatArray | None:
+        f = self._implicit()
+        return None if f is None else f[0]
+
+    @property
+    def implicit_v(self) -> FloatArray | None:
+        f = self._implicit()
+        return None if f is None else f[1]
 
 
 @dataclass
@@ -98,8 +117,9 @@ class CoupledSystem:
     them destroys them.
 
     Attributes:
-        E, I: the explicit zone and the Newmark side (None when absent).
-        LI: the implicit side's interface rows L_I.
+        E, I: the explicit zone and the Newmark side (None when absent); the implicit side
+            holds its interface rows L_I, and its vectors may be of a space of its own (a
+            reduced basis): the books reach them only through its methods.
         m, dt, dT: the ratio, micro and macro steps (s).
         acc: the accumulated energy terms (J, global).
         lam_macro_prev: the link force Λ (N) at the start of the macro step.
@@ -111,12 +131,11 @@ class CoupledSystem:
         explicit: ExplicitZone | None,
         implicit: Newmark | None,
         ratio: int,
-        l_implicit: ContactSet | None,
         dt: float,
     ) -> None:
         if explicit is None and implicit is None:
             raise ValueError("nothing to integrate")
-        self.E, self.I, self.LI = explicit, implicit, l_implicit
+        self.E, self.I = explicit, implicit
         self.coupled = explicit is not None and implicit is not None
         self.m = int(ratio) if self.coupled else 1
         self.dt = explicit.dt if explicit is not None else float(dt)
@@ -146,8 +165,8 @@ class CoupledSystem:
         assert I is not None
         kin, pot = self.sum(
             [
-                0.5 * float(np.dot(I.v, I.mass_action(I.v))),
-                0.5 * float(np.dot(I.u, I.stiffness_action(I.u))),
+                0.5 * I.local_dot(I.v, I.mass_action(I.v)),
+                0.5 * I.local_dot(I.u, I.stiffness_action(I.u)),
             ]
         )
         return float(kin), float(pot)
@@ -184,8 +203,8 @@ class CoupledSystem:
             lam, gaps = out.lam, out.gaps
         if I is not None:
             link = None
-            if self.coupled and self.LI is not None:
-                link = self.LI.transpose(lam0, I.model.n_owned)
+            if self.coupled:
+                link = I.interface_force(lam0)
             I.initialize(0.0, link)
             self.i_kin, self.i_int = self.implicit_energy()
         if E is not None and self.coupled:
@@ -222,20 +241,31 @@ class CoupledSystem:
         E, I = self.E, self.I  # noqa: E741
         if interface_impulse is None:
             interface_impulse = lam[:n_g] / self.dt if lam.size else np.zeros(0)
+        fields = None
+        if I is not None:
+            u, v = I.u, I.v  # replaced, never changed in place, by the steps that follow
+
+            def fields() -> tuple[FloatArray, FloatArray]:
+                return I.field(u), I.field(v)
+
+        jump = 0.0
+        if self.coupled and E is not None and I is not None:
+            w = E.stack.apply(E.v_int)[:n_g] + I.interface_values(I.v)
+            jump = float(np.max(np.abs(w), initial=0.0))
         return MacroRecord(
             self.n,
             self.n * self.dT,
             e,
             E.u if E is not None else None,
             E.v_int if E is not None else None,
-            I.u if I is not None else None,
-            I.v if I is not None else None,
+            fields,
             lam[n_g:] if lam.size else np.zeros(0),
             gaps[n_g:] if gaps.size else np.zeros(0),
             interface_impulse,
             micro,
             float(np.linalg.norm(self.impulse_E)),
             float(np.linalg.norm(self.impulse_E - self.impulse_I)),
+            jump,
         )
 
     def micro_flags(self, t0: float, out: kx.StepsOut) -> list[tuple[float, bool]]:
@@ -285,19 +315,18 @@ class CoupledSystem:
         self._cv_cache = (I.v, cv1)  # C V at the end: the next step's C V_0
         link = phys = 0.0
         if force is not None:
-            assert self.LI is not None
-            fl = self.LI.transpose(force, I.model.n_owned)
-            link = self.dT * float(np.dot(vbar, fl))
-            phys = float(np.dot(I.u - uI0, fl))
+            fl = I.interface_force(force)
+            link = self.dT * I.local_dot(vbar, fl)
+            phys = I.local_dot(I.u - uI0, fl)
         kin_old, pot_old = self.i_kin, self.i_int
         red = self.sum(
             [
-                self.dT * float(np.dot(vbar, 0.5 * (f0 + f1))),
-                self.dT * float(np.dot(vbar, 0.5 * (cv0 + cv1))),
+                self.dT * I.local_dot(vbar, 0.5 * (f0 + f1)),
+                self.dT * I.local_dot(vbar, 0.5 * (cv0 + cv1)),
                 link,
                 phys,
-                0.5 * float(np.dot(I.v, mv1)),
-                0.5 * float(np.dot(I.u, I.stiffness_action(I.u))),
+                0.5 * I.local_dot(I.v, mv1),
+                0.5 * I.local_dot(I.u, I.stiffness_action(I.u)),
             ]
         )
         w_ext, w_damp, link_i, phys_i = (float(x) for x in red[:4])

@@ -250,9 +250,42 @@ class Newmark:
     def accept(self, u: FloatArray, v: FloatArray, a: FloatArray) -> None:
         self.u, self.v, self.a = u, v, a
 
+    # The implicit side as the coupling methods see it (crane_fem.coupling.system): vectors of
+    # its own space, read and loaded through the interface rows.
+    def interface_values(self, x: FloatArray) -> FloatArray:
+        """L_I x: the interface rows of a vector of this side (global, collective)."""
+        return self.interface.apply(x)[: self.interface.p]
+
+    def interface_force(self, force: FloatArray) -> FloatArray:
+        """L_Iᵀ Λ for link forces Λ (global), a vector of this side (not collective)."""
+        return self.interface.transpose(force, self.model.n_owned)
+
+    def local_dot(self, x: FloatArray, y: FloatArray) -> float:
+        """This rank's part of xᵀy for vectors of this side (sum it over the ranks)."""
+        return float(np.dot(x, y))
+
+    def field(self, x: FloatArray) -> FloatArray:
+        """A vector of this side as a field on the subdomain's owned DOFs (itself here)."""
+        return x
+
+    def refined(self, dT: float) -> Newmark:
+        """The same side with the step ΔT = ``dT``, in the same state (its own factorisation;
+        caller destroys)."""
+        return Newmark(
+            self.model,
+            self.load,
+            dT,
+            self.u,
+            self.v,
+            self.beta,
+            self.gamma,
+            self.interface,
+            self.consistent,
+        )
+
     def link_response(self, force: FloatArray) -> FloatArray:
         """M̃⁻¹ Lᵀ Λ for link forces Λ (n_Γ, global, the same on every rank) (collective)."""
-        return self.solve(self.interface.transpose(force, self.model.n_owned))
+        return self.solve(self.interface_force(force))
 
     def correct(self, force: FloatArray) -> None:
         """Add the response to link forces Λ (n_Γ, N) applied at the current time

@@ -139,7 +139,7 @@ def build_integrators(
             cons.l_implicit if coupled else None,
             consistent_mass=nm.mass == "consistent",
         )
-    system = CoupledSystem(E, I, models.ratio, cons.l_implicit if coupled else None, models.dt)
+    system = CoupledSystem(E, I, models.ratio, models.dt)
     method: MacroStep
     report = None
     if coupled:
