@@ -19,8 +19,7 @@ import numpy.typing as npt
 from crane_fem.coupling.energy_conserving import EnergyConserving
 from crane_fem.coupling.gravouil_combescure import GCStep, GravouilCombescure
 from crane_fem.coupling.protocol import MethodBase
-from crane_fem.coupling.system import CoupledSystem, MacroRecord
-from crane_fem.integrators.newmark import Newmark
+from crane_fem.coupling.system import CoupledSystem, ImplicitSide, MacroRecord
 from crane_fem.kernels import explicit as kx
 
 __all__ = ["Hybrid"]
@@ -46,7 +45,7 @@ class Hybrid(MethodBase):
         self,
         system: CoupledSystem,
         operator: kx.InterfaceOp,
-        refined_operator: Callable[[Newmark], kx.InterfaceOp],
+        refined_operator: Callable[[ImplicitSide], kx.InterfaceOp],
         impact_ratio: int = 1,
         interface_tolerance: float = 5e-4,
     ) -> None:
@@ -59,7 +58,7 @@ class Hybrid(MethodBase):
         self.ec = EnergyConserving(system)
         self.gc = GravouilCombescure(system, operator)
         self._refined_operator = refined_operator
-        self._fine: tuple[Newmark, GravouilCombescure] | None = None
+        self._fine: tuple[ImplicitSide, GravouilCombescure] | None = None
         self.steps_taken = {"gc": 0, "gc_refined": 0, "ec": 0}
 
     def step(self) -> MacroRecord:

@@ -12,9 +12,9 @@ from typing import Any, ClassVar, Protocol
 
 import numpy.typing as npt
 
-from crane_fem.coupling.system import CoupledSystem, MacroRecord
+from crane_fem.coupling.system import CoupledSystem, ImplicitSide, MacroRecord
 
-__all__ = ["MacroStep", "MethodBase"]
+__all__ = ["ImplicitSide", "MacroStep", "MethodBase"]
 
 
 class MacroStep(Protocol):

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -19,13 +20,14 @@ from mpi4py import MPI
 
 from crane_fem.energy import BALANCE_TERMS
 from crane_fem.integrators.explicit_zone import ExplicitZone, ZoneSnapshot
-from crane_fem.integrators.newmark import Newmark
 from crane_fem.kernels import explicit as kx
+from crane_fem.model import StructuralModel
 
 __all__ = [
     "ENERGY_KEYS",
     "PH_KEYS",
     "CoupledSystem",
+    "ImplicitSide",
     "MacroRecord",
     "Snapshot",
     "TrapezoidStep",
@@ -42,6 +44,41 @@ ENERGY_KEYS = [
 #: "ph" with an undamped explicit side: the interface energy in the measure of the PH
 #: argument (S_E + the implicit side's energy, crane_fem.coupling.ph_energy) and S_E itself.
 PH_KEYS = ["interface_energy_ph", "energy_ph_explicit"]
+
+
+class ImplicitSide(Protocol):
+    """The implicit side as the coupling methods see it: a Newmark (β, γ) integrator whose
+    vectors (state, loads, link forces) are of a space of its own, the subdomain's field
+    (crane_fem.integrators.newmark) or reduced coordinates
+    (crane_fem.integrators.newmark_reduced), reached only through these methods."""
+
+    model: StructuralModel
+    load: Callable[[float], FloatArray]
+    dT: float
+    beta: float
+    gamma: float
+    W: FloatArray
+    u: FloatArray
+    v: FloatArray
+    a: FloatArray
+
+    def solve(self, rhs: FloatArray) -> FloatArray: ...
+    def mass_action(self, x: FloatArray) -> FloatArray: ...
+    def stiffness_action(self, x: FloatArray) -> FloatArray: ...
+    def damping_action(self, x: FloatArray, mx: FloatArray | None = None) -> FloatArray: ...
+    def mass_and_damping(self, x: FloatArray) -> tuple[FloatArray, FloatArray]: ...
+    def initialize(self, t0: float, link: FloatArray | None = None) -> None: ...
+    def free_step(self, t_new: float) -> tuple[FloatArray, FloatArray, FloatArray]: ...
+    def trapezoid_free_increment(self, f0: FloatArray, f1: FloatArray) -> FloatArray: ...
+    def accept(self, u: FloatArray, v: FloatArray, a: FloatArray) -> None: ...
+    def interface_values(self, x: FloatArray) -> FloatArray: ...
+    def interface_force(self, force: FloatArray) -> FloatArray: ...
+    def local_dot(self, x: FloatArray, y: FloatArray) -> float: ...
+    def field(self, x: FloatArray) -> FloatArray: ...
+    def refined(self, dT: float) -> ImplicitSide: ...
+    def link_response(self, force: FloatArray) -> FloatArray: ...
+    def correct(self, force: FloatArray) -> None: ...
+    def destroy(self) -> None: ...
 
 
 @dataclass
@@ -129,7 +166,7 @@ class CoupledSystem:
     def __init__(
         self,
         explicit: ExplicitZone | None,
-        implicit: Newmark | None,
+        implicit: ImplicitSide | None,
         ratio: int,
         dt: float,
     ) -> None:
@@ -400,7 +437,7 @@ class CoupledSystem:
         self.acc = dict(snap.acc)
         self.e_kin, self.e_int, self.i_kin, self.i_int = snap.energies
 
-    def use_implicit(self, implicit: Newmark, ratio: int) -> None:
+    def use_implicit(self, implicit: ImplicitSide, ratio: int) -> None:
         """Run the next macro steps with ``implicit`` (its ΔT = ratio × Δt) as the implicit
         side ("hybrid"'s refined steps); the books carry on."""
         self.I, self.m, self.dT = implicit, int(ratio), ratio * self.dt
