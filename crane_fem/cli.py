@@ -88,6 +88,10 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"crane-fem: wrote {path} ({info})")
             return 0
         if args.command == "check":
+            if sc.coupled_path:
+                from crane_fem.pipeline import check_simulation
+
+                check_simulation(sc, comm)
             if rank0:
                 print(f"{args.scenario}: ok ({sc.model.kind}, {sc.integrator.scheme})")
             return 0

@@ -20,6 +20,7 @@ from crane_fem.pipeline import Simulation, create_simulation
 from crane_fem.run_record import RunResult, finish_summary, progress_bar
 from crane_fem.scenario import Scenario
 from crane_fem.stability import EnergyGrowthMonitor
+from crane_fem.stress import VonMises
 from crane_fem.subdomains import Subdomain
 
 __all__ = ["HistoryRows", "run_coupled"]
@@ -165,6 +166,36 @@ def _xdmf_writers(sc: Scenario, sim: Simulation, out: Path) -> list[tuple[Subdom
     return writers
 
 
+class BridgeStress:
+    """The peak von Mises stress over the crane's bridge cells (girders, end carriages, the
+    rails outside the explicit zones) at the XDMF frames' times: of the implicit side in a
+    coupled run, of the whole mesh in the fully explicit one (collective)."""
+
+    def __init__(self, sim: Simulation) -> None:
+        md = sim.models
+        sub = md.implicit if md.implicit is not None else md.explicit
+        assert sub is not None
+        self.side = "implicit" if md.implicit is not None else "explicit"
+        tagged = sim.mesh.tagged
+        tag = tagged.cell_groups["bridge_implicit"]
+        n_parent = tagged.mesh.topology.index_map(tagged.mesh.topology.dim).size_local
+        n_parent += tagged.mesh.topology.index_map(tagged.mesh.topology.dim).num_ghosts
+        bridge = np.zeros(n_parent, dtype=bool)
+        bridge[tagged.cell_tags.indices[tagged.cell_tags.values == tag]] = True
+        self.vm = VonMises(sub.V, sim.scenario.material.E, sim.scenario.material.nu)
+        own = sub.parent_cells[: self.vm.n_cells]
+        self.cells = np.flatnonzero(bridge[own]).astype(np.int32)
+        self.comm = sim.mesh.comm
+        self.peak, self.t_peak = 0.0, 0.0
+
+    def update(self, rec: MacroRecord) -> None:
+        u = rec.implicit_u if self.side == "implicit" else rec.explicit_u
+        assert u is not None
+        value = self.vm.peak(u, self.cells, self.comm)
+        if value > self.peak:
+            self.peak, self.t_peak = value, rec.t
+
+
 def _summary_head(sc: Scenario, sim: Simulation, comm: MPI.Comm) -> dict[str, Any]:
     md, cons, it = sim.models, sim.constraints, sim.integrators
     sub = md.explicit or md.implicit
@@ -202,6 +233,8 @@ def _summary_head(sc: Scenario, sim: Simulation, comm: MPI.Comm) -> dict[str, An
             "support_reaction_N": pre.support_reaction,
             "max_penetration_m": pre.penetration,
         }
+    if it.reduction is not None:  # what the reduced implicit side keeps, and its set-up
+        summary["reduction"] = it.reduction
     if it.operator_report is not None:  # what the interface operator keeps
         summary["interface_operator"] = dataclasses.asdict(it.operator_report)
     return summary
@@ -229,6 +262,7 @@ def run_coupled(
     xdmf_every = sc.output.xdmf_every or max(1, md.n_macro // 200)
     summary = _summary_head(sc, sim, comm)
     writers = _xdmf_writers(sc, sim, out)
+    stress = BridgeStress(sim) if sim.mesh.crane is not None else None
     bar = progress_bar(sc, comm, progress, md.n_macro, "macro step")
     micro: list[tuple[float, bool]] = []
     total0: float | None = None
@@ -266,7 +300,10 @@ def run_coupled(
                     writer.write(row)
                     for c in columns:
                         history[c].append(row[c])
-                if writers and (rec.step % xdmf_every == 0 or rec.step == md.n_macro):
+                frame = rec.step % xdmf_every == 0 or rec.step == md.n_macro
+                if stress is not None and frame:
+                    stress.update(rec)
+                if writers and frame:
                     for sub, w in writers:
                         is_e = sub is md.explicit
                         du = rec.explicit_u if is_e else rec.implicit_u
@@ -309,6 +346,9 @@ def run_coupled(
             ifd_min_step if math.isfinite(ifd_min_step) else 0.0
         )
         summary.update(method.summary())
+        if stress is not None:  # at the XDMF frames' times (output.xdmf_every)
+            summary["peak_bridge_von_mises_Pa"] = stress.peak
+            summary["peak_bridge_von_mises_t"] = stress.t_peak
         times = [t for t, _ in micro]
         active = [a for _, a in micro]
         finish_summary(summary, out, comm, t_wall, times, active, max_drift, scale)

@@ -33,7 +33,7 @@ from crane_fem.contact import ContactSet
 from crane_fem.errors import CraneFemError, ScenarioError
 from crane_fem.model import StructuralModel
 
-__all__ = ["CraigBampton", "create_craig_bampton"]
+__all__ = ["CraigBampton", "check_modes", "create_craig_bampton", "interior_dofs"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -117,6 +117,23 @@ def _cholesky(A: PETSc.Mat, prefix: str) -> PETSc.KSP:
     ksp.setFromOptions()
     ksp.setUp()
     return ksp
+
+
+def interior_dofs(model: StructuralModel, interface: ContactSet) -> tuple[IntArray, int]:
+    """The owned interior DOFs (free, not on an interface row) and their global count
+    (collective)."""
+    boundary = np.zeros(model.n_owned, dtype=bool)
+    boundary[interface.dofs] = True
+    interior = np.flatnonzero(~boundary & ~model.fixed).astype(np.int64)
+    return interior, int(model.comm.allreduce(int(interior.size), op=MPI.SUM))
+
+
+def check_modes(modes: int | None, n_int: int) -> None:
+    """Refuse more fixed-interface modes than interior DOFs (on every rank: n_int is global)."""
+    if modes is not None and modes > n_int:
+        raise ScenarioError(
+            f"subdomain.modes = {modes} exceeds the {n_int} interior DOFs of the reduced subdomain"
+        )
 
 
 def create_craig_bampton(

@@ -325,11 +325,45 @@ class Loading(_Section):
 
 
 class SubdomainSpec(_Section):
-    """A subdomain: named cell groups integrated with one scheme."""
+    """A subdomain: named cell groups integrated with one scheme. ``newmark-reduced`` is
+    Newmark on a Craig–Bampton basis (crane_fem.reduction): the interface kept exactly, the
+    interior by ``modes`` fixed-interface normal modes or every mode below ``cutoff`` Hz,
+    plus the static response to each load."""
 
     name: str
     groups: Annotated[list[str], Field(min_length=1)]
-    scheme: Literal["cd-lagrange", "newmark"]
+    scheme: Literal["cd-lagrange", "newmark", "newmark-reduced"]
+    modes: PositiveInt | None = None
+    cutoff: PositiveFloat | None = None
+    #: newmark-reduced: add the static response to each load to the basis (the quasi-static
+    #: part carried exactly; false only to measure the error it avoids).
+    static_vectors: bool | None = None
+
+    @model_validator(mode="after")
+    def _reduction(self) -> SubdomainSpec:
+        if self.scheme == "newmark-reduced":
+            if (self.modes is None) == (self.cutoff is None):
+                raise ValueError(
+                    "scheme 'newmark-reduced' needs exactly one of modes (a count of "
+                    "fixed-interface modes) or cutoff (Hz)"
+                )
+        elif self.modes is not None or self.cutoff is not None or self.static_vectors is not None:
+            key = (
+                "modes"
+                if self.modes is not None
+                else "cutoff"
+                if self.cutoff is not None
+                else "static_vectors"
+            )
+            raise ValueError(
+                f"{key} applies to scheme 'newmark-reduced' only (the reduction of an implicit "
+                f"subdomain), not {self.scheme!r}"
+            )
+        return self
+
+    @property
+    def implicit(self) -> bool:
+        return self.scheme in ("newmark", "newmark-reduced")
 
 
 class Coupling(_Section):
@@ -493,7 +527,7 @@ class Scenario(_Section):
         missing = sorted(set(allowed) - set(seen))
         if missing:
             raise ValueError(f"subdomain: groups {missing} belong to no subdomain")
-        implicit = [sd for sd in self.subdomain if sd.scheme == "newmark"]
+        implicit = [sd for sd in self.subdomain if sd.implicit]
         if len(implicit) > 1 and cpl is None:
             raise ValueError("two implicit (newmark) subdomains without a [coupling]")
         if len(implicit) > 1:
@@ -622,7 +656,8 @@ def _parse_value(text: str, key: str) -> Any:
 
 
 def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
-    """Apply ``key.path=value`` overrides (values parsed as TOML) to a scenario mapping."""
+    """Apply ``key.path=value`` overrides (values parsed as TOML) to a scenario mapping; a
+    number in the path indexes an array of tables (``subdomain.1.modes=100``)."""
     for item in overrides:
         if "=" not in item:
             raise ScenarioError(f"--set {item}: expected key.path=value")
@@ -633,15 +668,24 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any
             raise ScenarioError(f"--set {item}: empty key")
         node: Any = data
         for i, part in enumerate(parts[:-1]):
+            here = ".".join(parts[: i + 1])
+            if isinstance(node, list):
+                if not part.isdigit() or int(part) >= len(node):
+                    raise ScenarioError(
+                        f"--set {key}: {here}: an array of {len(node)} tables takes an index "
+                        f"0..{len(node) - 1}"
+                    )
+                node = node[int(part)]
+                continue
             nxt = node.get(part) if isinstance(node, dict) else None
             if nxt is None:
                 nxt = {}
                 node[part] = nxt
-            if not isinstance(nxt, dict):
-                raise ScenarioError(
-                    f"--set {key}: {'.'.join(parts[: i + 1])} is not a table and has no keys"
-                )
+            if not isinstance(nxt, dict | list):
+                raise ScenarioError(f"--set {key}: {here} is not a table and has no keys")
             node = nxt
+        if not isinstance(node, dict):
+            raise ScenarioError(f"--set {key}: {'.'.join(parts[:-1])} is not a table")
         node[parts[-1]] = _parse_value(text.strip(), key)
     return data
 

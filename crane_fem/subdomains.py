@@ -35,6 +35,8 @@ class Subdomain:
     parent_vertex: IntArray
     vertex_global: IntArray
     fixed_vertices: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    #: The local parent cell of each local submesh cell (owned, then ghost).
+    parent_cells: npt.NDArray[np.int32] = field(default_factory=lambda: np.zeros(0, np.int32))
 
     @property
     def bs(self) -> int:
@@ -132,10 +134,10 @@ def create_subdomain(
     else:
         bc_dofs = fixed_dofs
     density: float | dolfinx.fem.Function = rho
+    imap = sub.topology.index_map(tdim)
+    sub_cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+    parent_cells = np.asarray(cell_map.sub_topology_to_topology(sub_cells, inverse=False))
     if cell_density is not None:
-        imap = sub.topology.index_map(tdim)
-        sub_cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
-        parent_cells = cell_map.sub_topology_to_topology(sub_cells, inverse=False)
         density = dolfinx.fem.Function(dolfinx.fem.functionspace(sub, ("DG", 0)))
         dofs = density.function_space.dofmap.list[:, 0]  # one DOF per cell, row = cell
         density.x.array[dofs] = cell_density[parent_cells]
@@ -144,7 +146,9 @@ def create_subdomain(
     fixed = np.zeros(n_own, dtype=bool)
     fixed[fixed_dofs[fixed_dofs < n_own]] = True
     model = StructuralModel(V, K, lumped, fixed, rayleigh[0], rayleigh[1], M)
-    return Subdomain(name, scheme, sub, V, model, parent_vertex, vertex_global, fixed_vertices)
+    return Subdomain(
+        name, scheme, sub, V, model, parent_vertex, vertex_global, fixed_vertices, parent_cells
+    )
 
 
 def global_ids(comm: MPI.Comm, local: IntArray) -> IntArray:

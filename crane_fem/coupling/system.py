@@ -52,12 +52,19 @@ class ImplicitSide(Protocol):
     (crane_fem.integrators.newmark) or reduced coordinates
     (crane_fem.integrators.newmark_reduced), reached only through these methods."""
 
-    model: StructuralModel
-    load: Callable[[float], FloatArray]
-    dT: float
-    beta: float
-    gamma: float
-    W: FloatArray
+    @property
+    def model(self) -> StructuralModel: ...
+    @property
+    def load(self) -> Callable[[float], FloatArray]: ...
+    @property
+    def dT(self) -> float: ...
+    @property
+    def beta(self) -> float: ...
+    @property
+    def gamma(self) -> float: ...
+    @property
+    def W(self) -> FloatArray: ...
+
     u: FloatArray
     v: FloatArray
     a: FloatArray

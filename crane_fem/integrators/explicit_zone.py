@@ -236,6 +236,7 @@ class ExplicitZone:
             qe=np.zeros(n_g),
             qc=np.zeros(p - n_g),
             work=np.zeros(n_g),
+            closed=np.zeros(p - n_g, dtype=bool),
             send_buf=np.zeros(si.size),
             recv_buf=np.zeros(ri.size),
             requests=create_requests(2 * nbrs.size),

@@ -10,7 +10,8 @@ import dolfinx
 import dolfinx.io
 import numpy as np
 import numpy.typing as npt
-import ufl
+
+from crane_fem.stress import VonMises
 
 __all__ = ["XDMFSeries"]
 
@@ -48,18 +49,9 @@ class XDMFSeries:
             c = dolfinx.fem.Function(W, name=name)
             c.x.array[:] = value
             self._cells.append(c)
-        self._vm: tuple[dolfinx.fem.Function, dolfinx.fem.Expression] | None = None
+        self._vm: VonMises | None = None
         if von_mises is not None:
-            E, nu = von_mises
-            mu = E / (2.0 * (1.0 + nu))
-            lmbda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
-            u = self._functions["displacement"]
-            eps = ufl.sym(ufl.grad(u))
-            sigma = 2.0 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(len(u))
-            dev = sigma - ufl.tr(sigma) / 3.0 * ufl.Identity(len(u))
-            expr = ufl.sqrt(1.5 * ufl.inner(dev, dev))
-            vm = dolfinx.fem.Function(W, name="von_mises")
-            self._vm = (vm, dolfinx.fem.Expression(expr, W.element.interpolation_points))
+            self._vm = VonMises(V, *von_mises)
 
     def write(self, t: float, fields: dict[str, npt.NDArray[np.float64]]) -> None:
         for name, values in fields.items():
@@ -68,9 +60,8 @@ class XDMFSeries:
             f.x.scatter_forward()
             self._file.write_function(f, t)
         if self._vm is not None:
-            vm, expr = self._vm
-            vm.interpolate(expr)
-            self._file.write_function(vm, t)
+            self._vm.evaluate(fields["displacement"])
+            self._file.write_function(self._vm.field, t)
         for c in self._cells:
             self._file.write_function(c, t)
         self._file.flush()

@@ -101,7 +101,7 @@ def _micro(
         for i in range(n_own):
             u[i] += z.dt * vh[i]
     for c in range(z.c_dofs.size):
-        st.vold_c[c] = vh[z.c_dofs[c]]
+        st.vold_c[c] = vh[z.c_dofs[c]]  # (before any update of V)
     if last:
         for i in range(n_own):
             st.v_int[i] = vh[i]
@@ -150,25 +150,29 @@ def _micro(
             for i in range(n_own):
                 st.v_int[i] = 0.5 * (st.v_int[i] + vh[i])
         return
-    # Stacked rows: L U_j, L V_{j−1/2}, L V_free (one reduction).
+    # Stacked rows: L U_j, L V_{j−1/2}, L V_free (one reduction). (Arrays taken out of the
+    # tuples first: the loops below then keep them in registers.)
+    t_row, t_dof, t_coeff, t_pos = z.t_row, z.t_dof, z.t_coeff, z.t_pos
+    c_dofs, vold_c, jump, jump_c = z.c_dofs, st.vold_c, st.jump, st.jump_c
     red = st.red
     for r in range(3 * p):
         red[r] = 0.0
-    for t in range(z.t_row.size):
-        r, d, cf = z.t_row[t], z.t_dof[t], z.t_coeff[t]
+    for t in range(t_row.size):
+        r, d, cf = t_row[t], t_dof[t], t_coeff[t]
         red[r] += cf * u[d]
-        red[p + r] += cf * st.vold_c[z.t_pos[t]]
+        red[p + r] += cf * vold_c[t_pos[t]]
         red[2 * p + r] += cf * vh[d]
     g = st.red_out
     if z.nranks > 1:
         out.flags[MPI_ERROR] |= allreduce_sum(red, g, z.mpi)
     else:
-        g[:] = red
+        for r in range(3 * p):
+            g[r] = red[r]
     gaps = out.gaps
     for r in range(p):
         gaps[r] = z.g0[r] + g[r]
     pc = p - n_g
-    closed = np.empty(pc, dtype=np.bool_)
+    closed = st.closed
     for c in range(pc):
         closed[c] = gaps[n_g + c] <= z.tol
         st.qc[c] = g[2 * p + n_g + c]
@@ -199,28 +203,29 @@ def _micro(
     else:
         contacts_exact(z, st, closed, lam_c, out.flags)
     # V_{j+1/2} = V_free + M⁻¹ Lᵀ Λ at the constraint DOFs, and the work of Λ.
-    for c in range(z.c_dofs.size):
-        st.jump[c] = 0.0
-        st.jump_c[c] = 0.0
-    for t in range(z.t_row.size):
-        r = z.t_row[t]
-        st.jump[z.t_pos[t]] += z.t_coeff[t] * lam[r]
+    for c in range(c_dofs.size):
+        jump[c] = 0.0
+        jump_c[c] = 0.0
+    for t in range(t_row.size):
+        r = t_row[t]
+        jump[t_pos[t]] += t_coeff[t] * lam[r]
         if r >= n_g:
-            st.jump_c[z.t_pos[t]] += z.t_coeff[t] * lam[r]
+            jump_c[t_pos[t]] += t_coeff[t] * lam[r]
     contact_w = 0.0
     link_w = 0.0
-    for c in range(z.c_dofs.size):
-        d = z.c_dofs[c]
-        dv = z.minv[d] * st.jump[c]
+    minv, mass, alpha, beta = z.minv, z.mass, z.alpha, z.beta
+    for c in range(c_dofs.size):
+        d = c_dofs[c]
+        dv = minv[d] * jump[c]
         v_free = vh[d]
         vh[d] = v_free + dv
-        v_mid = 0.5 * (st.vold_c[c] + vh[d])
-        contact_w += v_mid * st.jump_c[c]
-        link_w += v_mid * (st.jump[c] - st.jump_c[c])
+        v_mid = 0.5 * (vold_c[c] + vh[d])
+        contact_w += v_mid * jump_c[c]
+        link_w += v_mid * (jump[c] - jump_c[c])
         # The sums of free_rows took V_free for V_{j+1/2}: add the impulse's part.
-        cv = z.alpha * z.mass[d] * st.vold_c[c]
-        if z.beta != 0.0:
-            cv = cv + z.beta * st.kv[d]
+        cv = alpha * mass[d] * vold_c[c]
+        if beta != 0.0:
+            cv = cv + beta * st.kv[d]
         ext += dv * load_at(z, coef, d)
         damp += dv * cv
     out.sums[EXT] += 0.5 * h * ext
@@ -240,20 +245,22 @@ def _micro(
     if n_g > 0:
         gc_w = 0.0
         phys_w = 0.0
+        w_gamma, lam_prev, w_prev = z.w_gamma, st.lam_prev, st.w_prev
+        trap, total, keep = out.impulse_trap, out.impulse_sum, ctl.keep_impulses
         for i in range(n_g):
-            wl = z.w_gamma[i] * lam[i]
+            wl = w_gamma[i] * lam[i]
             if not z.ec_zero:
                 for c in range(pc):
                     wl += z.W_ec[i, c] * lam_c[c]
             w_i = 0.5 * (g[p + i] + (g[2 * p + i] + wl))
-            lbar = 0.5 * (st.lam_prev[i] + lam[i])
-            gc_w += lbar * (0.5 * (st.w_prev[i] + w_i))
+            lbar = 0.5 * (lam_prev[i] + lam[i])
+            gc_w += lbar * (0.5 * (w_prev[i] + w_i))
             phys_w += lbar * g[p + i]  # (Λ̄/Δt)·L(U_j − U_{j−1}), U_j − U_{j−1} = Δt V_{j−1/2}
-            out.impulse_trap[i] += 0.5 * (st.lam_prev[i] + lam[i])
-            out.impulse_sum[i] += lam[i]
-            st.lam_prev[i] = lam[i]
-            st.w_prev[i] = w_i
-            if ctl.keep_impulses:
+            trap[i] += 0.5 * (lam_prev[i] + lam[i])
+            total[i] += lam[i]
+            lam_prev[i] = lam[i]
+            w_prev[i] = w_i
+            if keep:
                 out.impulses[jj, i] = lam[i]
         out.sums[GC_WORK] += gc_w
         out.sums[PHYS_WORK] += phys_w

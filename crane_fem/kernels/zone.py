@@ -115,6 +115,7 @@ class ZoneState(NamedTuple):
     qe: FloatArray  # (n_g) interface right-hand side
     qc: FloatArray  # (p − n_g) contact right-hand side
     work: FloatArray  # (n_g) operator scratch
+    closed: BoolArray  # (p − n_g) contact points closed this micro step
     send_buf: FloatArray
     recv_buf: FloatArray
     requests: npt.NDArray[Any]

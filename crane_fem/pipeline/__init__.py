@@ -6,7 +6,7 @@ from crane_fem.pipeline.constraints import ConstraintStage, build_constraints
 from crane_fem.pipeline.integrators import IntegratorStage, build_integrators
 from crane_fem.pipeline.mesh import MeshStage, build_mesh, create_tagged_mesh
 from crane_fem.pipeline.models import ModelStage, build_models
-from crane_fem.pipeline.simulation import Simulation, create_simulation
+from crane_fem.pipeline.simulation import Simulation, check_simulation, create_simulation
 
 __all__ = [
     "ConstraintStage",
@@ -18,6 +18,7 @@ __all__ = [
     "build_integrators",
     "build_mesh",
     "build_models",
+    "check_simulation",
     "create_simulation",
     "create_tagged_mesh",
 ]

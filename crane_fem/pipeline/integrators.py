@@ -10,6 +10,7 @@ import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 
+from crane_fem.contact import ContactSet
 from crane_fem.coupling import (
     CoupledSystem,
     ExplicitAlone,
@@ -20,14 +21,19 @@ from crane_fem.coupling import (
     method_class,
 )
 from crane_fem.coupling.interface import zone_labels
+from crane_fem.coupling.system import ImplicitSide
 from crane_fem.integrators.explicit_zone import ExplicitZone
 from crane_fem.integrators.newmark import Newmark
+from crane_fem.integrators.newmark_reduced import ReducedNewmark
 from crane_fem.kernels.explicit import InterfaceOp
+from crane_fem.loading.body import AffineLoad
 from crane_fem.pipeline.constraints import ConstraintStage
 from crane_fem.pipeline.loads import body_load, initial_state
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.pipeline.models import ModelStage
+from crane_fem.reduction import create_craig_bampton
 from crane_fem.scenario import HYBRID_KEYS, Scenario
+from crane_fem.subdomains import Subdomain
 
 __all__ = ["IntegratorStage", "build_integrators"]
 
@@ -39,18 +45,21 @@ class IntegratorStage:
     """The integrators of a scenario (owns them: ``destroy``, collective).
 
     Attributes:
-        explicit: the explicit zone, or None; implicit: the Newmark side, or None.
+        explicit: the explicit zone, or None; implicit: the Newmark side (full or reduced),
+            or None.
         system: the two sides and their books; method: the macro-step method.
         operator_report: what the GC interface operator keeps (gc, gc-mean, hybrid).
         interface_force0: the link forces Λ_0 of a preloaded start, or None.
+        reduction: what a reduced implicit side keeps and cost (summary.json), or None.
     """
 
     explicit: ExplicitZone | None
-    implicit: Newmark | None
+    implicit: ImplicitSide | None
     system: CoupledSystem
     method: MacroStep
     operator_report: OperatorReport | None
     interface_force0: FloatArray | None
+    reduction: dict[str, Any] | None = None
 
     def destroy(self) -> None:
         self.method.destroy()
@@ -92,7 +101,7 @@ class _OperatorFactory:
         self.single = cpl is not None and cpl.interface_precision == "single"
         self.report: OperatorReport | None = None
 
-    def __call__(self, E: ExplicitZone, implicit: Newmark, ratio: int) -> InterfaceOp:
+    def __call__(self, E: ExplicitZone, implicit: ImplicitSide, ratio: int) -> InterfaceOp:
         op, report = create_interface_operator(
             E.zone.w_gamma,
             implicit.W,
@@ -106,11 +115,63 @@ class _OperatorFactory:
         return op
 
 
+def _reduced_side(
+    sc: Scenario,
+    models: ModelStage,
+    cons: ConstraintStage,
+    sub: Subdomain,
+    load: AffineLoad,
+    u0: FloatArray,
+    v0: FloatArray,
+) -> tuple[ReducedNewmark, dict[str, Any]]:
+    """Newmark on the Craig–Bampton basis of ``sub`` (crane_fem.reduction): the interface rows
+    kept, the interior by the scenario's modes (or cutoff) and the static response to each
+    load vector; the initial state, the preload's, projected (collective)."""
+    spec = next(s for s in sc.subdomain if s.implicit)
+    model = sub.model
+    mass = model.M
+    diagonal = None
+    if sc.newmark.mass == "lumped" or mass is None:
+        diagonal = model.K.duplicate()
+        diagonal.zeroEntries()
+        dvec = model.create_vector(np.where(model.fixed, 1.0, model.mass))
+        diagonal.setDiagonal(dvec)
+        dvec.destroy()
+        mass = diagonal
+    try:
+        rows = cons.l_implicit if models.coupled else ContactSet.empty(model.comm)
+        loads = [load.base, *load.shapes] if spec.static_vectors is not False else []
+        basis = create_craig_bampton(model, mass, rows, loads, spec.modes, spec.cutoff)
+        x0, err_u = basis.coordinates(u0, mass)
+        xv0, err_v = basis.coordinates(v0, mass)
+    finally:
+        if diagonal is not None:
+            diagonal.destroy()
+    shapes = np.array([basis.project(f) for f in load.shapes]).reshape(-1, basis.n_r)
+    rload = AffineLoad(basis.project(load.base), shapes, load.histories)
+    nm = sc.newmark
+    side = ReducedNewmark(model, basis, rload, models.dT, x0, xv0, nm.beta, nm.gamma)
+    report = {
+        "modes": basis.n_modes,
+        "cutoff_hz": spec.cutoff,
+        "frequency_range_hz": [float(basis.frequencies[0]), float(basis.frequencies[-1])]
+        if basis.n_modes
+        else [],
+        "static_vectors": basis.n_static,
+        "interface_coordinates": basis.n_b,
+        "reduced_size": basis.n_r,
+        "initial_state_projection_error": max(err_u, err_v),
+        **{f"{k}_s": v for k, v in basis.timings.items()},
+    }
+    return side, report
+
+
 def build_integrators(
     sc: Scenario, mesh: MeshStage, models: ModelStage, cons: ConstraintStage
 ) -> IntegratorStage:
     """Explicit zone, Newmark side, coupled system and method (collective)."""
-    E = I = None  # noqa: E741
+    E: ExplicitZone | None = None
+    I: ImplicitSide | None = None  # noqa: E741
     coupled = models.coupled
     if models.explicit is not None:
         sub = models.explicit
@@ -124,21 +185,27 @@ def build_integrators(
             cons.l_explicit,
             cons.contacts,
         )
+    reduction = None
     if models.implicit is not None:
         sub = models.implicit
         u0, v0 = initial_state(sc, sub, models.preload)
+        load = body_load(sc, mesh, sub)
         nm = sc.newmark
-        I = Newmark(  # noqa: E741
-            sub.model,
-            body_load(sc, mesh, sub),
-            models.dT,
-            u0,
-            v0,
-            nm.beta,
-            nm.gamma,
-            cons.l_implicit if coupled else None,
-            consistent_mass=nm.mass == "consistent",
-        )
+        spec = next(s for s in sc.subdomain if s.implicit) if sc.subdomain else None
+        if spec is not None and spec.scheme == "newmark-reduced" and models.method != "monolithic":
+            I, reduction = _reduced_side(sc, models, cons, sub, load, u0, v0)  # noqa: E741
+        else:
+            I = Newmark(  # noqa: E741
+                sub.model,
+                load,
+                models.dT,
+                u0,
+                v0,
+                nm.beta,
+                nm.gamma,
+                cons.l_implicit if coupled else None,
+                consistent_mass=nm.mass == "consistent",
+            )
     system = CoupledSystem(E, I, models.ratio, models.dt)
     method: MacroStep
     report = None
@@ -165,4 +232,4 @@ def build_integrators(
     if coupled and models.preload is not None:
         assert E is not None
         force0 = _interface_force0(mesh.comm, E)
-    return IntegratorStage(E, I, system, method, report, force0)
+    return IntegratorStage(E, I, system, method, report, force0, reduction)

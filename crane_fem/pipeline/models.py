@@ -108,7 +108,7 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             ["trolley_frame"] + [f"wheel_{k}" for k in range(1, 5)],
         )
     explicit_specs = [s for s in specs if s[1] == "cd-lagrange"]
-    implicit_specs = [s for s in specs if s[1] == "newmark"]
+    implicit_specs = [s for s in specs if s[1] in ("newmark", "newmark-reduced")]
     explicit = implicit = None
     if explicit_specs:
         explicit = create_subdomain(
@@ -129,7 +129,7 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
         implicit = create_subdomain(
             tagged,
             implicit_specs[0][0],
-            "newmark",
+            implicit_specs[0][1],
             tagged.cells(implicit_specs[0][2]),
             mat.E,
             mat.nu,

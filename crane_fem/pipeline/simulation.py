@@ -14,9 +14,10 @@ from crane_fem.pipeline.constraints import ConstraintStage, build_constraints
 from crane_fem.pipeline.integrators import IntegratorStage, build_integrators
 from crane_fem.pipeline.mesh import MeshStage, build_mesh
 from crane_fem.pipeline.models import ModelStage, build_models
+from crane_fem.reduction import check_modes, interior_dofs
 from crane_fem.scenario import BoxBeamModel, CraneModel, Scenario
 
-__all__ = ["Simulation", "create_simulation"]
+__all__ = ["Simulation", "check_simulation", "create_simulation"]
 
 
 @dataclass
@@ -59,3 +60,22 @@ def create_simulation(sc: Scenario, comm: MPI.Comm) -> Simulation:
         models.destroy()
         raise
     return Simulation(sc, mesh, models, constraints, integrators)
+
+
+def check_simulation(sc: Scenario, comm: MPI.Comm) -> None:
+    """What ``run`` refuses after reading the mesh, refused without integrating: a reduced
+    implicit subdomain with more modes than interior DOFs (collective; meshes and builds the
+    subdomains)."""
+    spec = next((s for s in sc.subdomain if s.scheme == "newmark-reduced"), None)
+    if spec is None or spec.modes is None:
+        return
+    mesh = build_mesh(sc, comm)
+    models = build_models(sc, mesh)
+    try:
+        constraints = build_constraints(sc, mesh, models)
+        if models.implicit is not None:
+            rows = constraints.l_implicit
+            _, n_int = interior_dofs(models.implicit.model, rows)
+            check_modes(spec.modes, n_int)
+    finally:
+        models.destroy()

@@ -1,0 +1,50 @@
+"""Von Mises stress of a displacement field, cell by cell (linear elasticity; P1 strains are
+constant in a tetrahedron), and its peak over a group of cells."""
+
+from __future__ import annotations
+
+import dolfinx
+import numpy as np
+import numpy.typing as npt
+import ufl
+from mpi4py import MPI
+
+__all__ = ["VonMises"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+class VonMises:
+    """σ_vm = √(3/2 s:s) of the displacement ``u`` on ``V`` (a vector P1 space), in DG0.
+
+    Collective over the mesh communicator (:meth:`evaluate` scatters the ghosts).
+    """
+
+    def __init__(self, V: dolfinx.fem.FunctionSpace, E: float, nu: float) -> None:
+        mu = E / (2.0 * (1.0 + nu))
+        lmbda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+        self.u = dolfinx.fem.Function(V, name="displacement")
+        eps = ufl.sym(ufl.grad(self.u))
+        sigma = 2.0 * mu * eps + lmbda * ufl.tr(eps) * ufl.Identity(len(self.u))
+        dev = sigma - ufl.tr(sigma) / 3.0 * ufl.Identity(len(self.u))
+        W = dolfinx.fem.functionspace(V.mesh, ("DG", 0))
+        self.field = dolfinx.fem.Function(W, name="von_mises")
+        self._expr = dolfinx.fem.Expression(
+            ufl.sqrt(1.5 * ufl.inner(dev, dev)), W.element.interpolation_points
+        )
+        self._n = V.dofmap.index_map.size_local * V.dofmap.index_map_bs
+        self.n_cells = V.mesh.topology.index_map(V.mesh.topology.dim).size_local
+
+    def evaluate(self, u: FloatArray | None = None) -> FloatArray:
+        """σ_vm (Pa) of the owned cells, for the owned-DOF displacement ``u`` (or the one
+        already in ``self.u``) (collective)."""
+        if u is not None:
+            self.u.x.array[: self._n] = u
+            self.u.x.scatter_forward()
+        self.field.interpolate(self._expr)
+        return np.asarray(self.field.x.array[: self.n_cells])
+
+    def peak(self, u: FloatArray, cells: npt.NDArray[np.int32], comm: MPI.Comm) -> float:
+        """The largest σ_vm over the owned ``cells`` of all ranks (collective)."""
+        local = float(np.max(self.evaluate(u)[cells], initial=0.0))
+        return float(comm.allreduce(local, op=MPI.MAX))
