@@ -62,7 +62,10 @@ class ReducedNewmark:
         self._inv = np.ascontiguousarray(
             scipy.linalg.cho_solve(scipy.linalg.cho_factor(self.A), eye)
         )
-        self._mass_factor = scipy.linalg.cho_factor(M)
+        # The static vectors (the last coordinates) are massless: the initial acceleration
+        # solves the rows that carry mass (the others are in static balance at the start).
+        self._n_dyn = n_r - basis.n_static
+        self._mass_factor = scipy.linalg.cho_factor(M[: self._n_dyn, : self._n_dyn])
         self.u = np.array(u0, dtype=np.float64)
         self.v = np.array(v0, dtype=np.float64)
         self.a = np.zeros_like(self.u)
@@ -102,7 +105,9 @@ class ReducedNewmark:
         rhs = self.load(t0) - self.stiffness_action(self.u) - self.damping_action(self.v)
         if link is not None:
             rhs = rhs + link
-        self.a = np.asarray(scipy.linalg.cho_solve(self._mass_factor, rhs, check_finite=False))
+        k = self._n_dyn
+        self.a = np.zeros_like(self.u)
+        self.a[:k] = scipy.linalg.cho_solve(self._mass_factor, rhs[:k], check_finite=False)
 
     def free_step(self, t_new: float) -> tuple[FloatArray, FloatArray, FloatArray]:
         """(U, V, A) at t_new with Λ = 0 at t_new; the state is not changed."""

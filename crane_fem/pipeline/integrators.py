@@ -140,8 +140,10 @@ def _reduced_side(
         mass = diagonal
     try:
         rows = cons.l_implicit if models.coupled else ContactSet.empty(model.comm)
-        loads = [load.base, *load.shapes] if spec.static_vectors is not False else []
-        basis = create_craig_bampton(model, mass, rows, loads, spec.modes, spec.cutoff)
+        loads = [load.base, *load.shapes]
+        basis = create_craig_bampton(
+            model, mass, rows, loads, spec.modes, spec.cutoff, spec.static_vectors is not False
+        )
         x0, err_u = basis.coordinates(u0, mass)
         xv0, err_v = basis.coordinates(v0, mass)
     finally:
@@ -158,6 +160,10 @@ def _reduced_side(
         if basis.n_modes
         else [],
         "static_vectors": basis.n_static,
+        # Per load vector (self-weight, then each ground-motion direction): the fraction of its
+        # static response, energy norm, that the modes alone would miss (the static vectors
+        # carry it when kept; computed either way).
+        "static_response_missed_by_modes": basis.static_missed,
         "interface_coordinates": basis.n_b,
         "reduced_size": basis.n_r,
         "initial_state_projection_error": max(err_u, err_v),
