@@ -115,6 +115,12 @@ def main() -> int:
         metavar="N",
         help="mode counts run again without the static load vectors",
     )
+    parser.add_argument(
+        "--pairs",
+        type=int,
+        default=3,
+        help="timing pairs (fully explicit, then the scene as written) run one after the other",
+    )
     parser.add_argument("-o", "--out", type=Path, default=ROOT / "out" / "bench_reduction")
     parser.add_argument("--report", action="store_true", help="tables and figure from the JSON")
     args = parser.parse_args()
@@ -138,6 +144,23 @@ def main() -> int:
             name = f"reduced_{n}_no_static"
             sets = [f"subdomain.1.modes={n}", "subdomain.1.static_vectors=false"]
             runs.append((name, _run(out, REDUCED, name, sets), n))
+        # Speed side by side: pairs run back to back (the machine's speed drifts by tens of %
+        # over minutes), the ratio taken pair by pair and its median quoted.
+        pairs = []
+        for k in range(args.pairs):
+            e = _run(out, FULL, f"timing_explicit_{k}", ["coupling.method='monolithic'"])
+            r = _run(out, REDUCED, f"timing_reduced_{k}", [])
+            pairs.append(
+                {
+                    "explicit_s": e["wall_time_integration_s"],
+                    "reduced_s": r["wall_time_integration_s"],
+                    "ratio": e["wall_time_integration_s"] / r["wall_time_integration_s"],
+                    "reduced_total_s": r["wall_time_s"],
+                    "explicit_total_s": e["wall_time_s"],
+                    "modes": r["reduction"]["modes"],
+                }
+            )
+            print(f"  pair {k}: {pairs[-1]['ratio']:.2f}x", flush=True)
         rows = [_row(out, name, s, n) for name, s, n in runs]
         t_exp = exp["wall_time_integration_s"]
         for r in rows:
@@ -153,6 +176,7 @@ def main() -> int:
             "dofs_implicit": n_i,
             "ideal_speedup": (n_e + n_i) / n_e,
             "rows": rows,
+            "pairs": pairs,
         }
         path.write_text(json.dumps(res, indent=1))
     res = json.loads(path.read_text())
@@ -185,6 +209,22 @@ def _table(res: dict[str, Any]) -> None:
             f"{_pct(r['interface_energy_over_work'])} | {r['lift_offs']} | "
             f"{r['integration_s']:.2f} | {r['speedup']:.2f} | {r['setup_s']:.1f} | "
             f"{r['eigensolve_s'] if r['eigensolve_s'] is None else round(r['eigensolve_s'], 1)} |"
+        )
+    pairs = res.get("pairs") or []
+    if pairs:
+        ratios = sorted(p["ratio"] for p in pairs)
+        print(
+            f"\nSide by side (time loop, `wall_time_integration_s`), {len(pairs)} pairs run back "
+            f"to back, demos/crane_stress_reduced.toml (N = {pairs[0]['modes']}) against the "
+            f"fully explicit run: median **{ratios[len(ratios) // 2]:.2f}×** (pairs: "
+            + ", ".join(
+                f"{p['explicit_s']:.1f} s / {p['reduced_s']:.2f} s = {p['ratio']:.2f}×"
+                for p in pairs
+            )
+            + "); whole runs, set-up included: "
+            + ", ".join(
+                f"{p['explicit_total_s']:.0f} s / {p['reduced_total_s']:.0f} s" for p in pairs
+            )
         )
     print(
         f"\nIdeal bound from the DOF split: ({res['dofs_explicit']} + {res['dofs_implicit']}) / "

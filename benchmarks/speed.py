@@ -203,7 +203,7 @@ def part_coupled(scene: str, ratio: int, extra: list[str]) -> None:
     y = np.zeros_like(x)
     # In compiled code, as the kernel calls it (a call from Python adds ~5 µs of dispatch).
     iface = best_of(lambda: _operator_loop(op, m, x, y), 1) / m if op is not None else 0.0
-    rhs = np.random.default_rng(1).standard_normal(I.model.n_owned)
+    rhs = np.random.default_rng(1).standard_normal(I.u.size)
     solve = best_of(lambda: I.solve(rhs), 10)
     method.step()
     macro = best_of(method.step, max(2, 2000 // m), 1)
