@@ -237,6 +237,7 @@ def _figure(res: dict[str, Any]) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
 
     red = [r for r in res["rows"] if r["case"].startswith("reduced") and r["static_vectors"]]
     red.sort(key=lambda r: r["modes"])
@@ -287,6 +288,10 @@ def _figure(res: dict[str, Any]) -> None:
     b.set_ylabel("wall time (s)")
     b.set_title(f"Wall time, {res['end_s']:.2g} s of the record")
     b.legend(fontsize=7)
+    for ax in (a, b):
+        ax.set_xscale("log")
+        ax.set_xticks(n, [str(k) for k in n])
+        ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
     fig.tight_layout()
     fig.savefig(RESULTS / "reduction.png", dpi=120)
 
