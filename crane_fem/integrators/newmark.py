@@ -35,7 +35,7 @@ from crane_fem.contact import ContactSet
 from crane_fem.errors import CraneFemError
 from crane_fem.model import LoadFunction, StructuralModel
 
-__all__ = ["Newmark", "check_newmark_parameters"]
+__all__ = ["Newmark", "NewmarkSteps", "check_newmark_parameters"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -55,7 +55,89 @@ def check_newmark_parameters(beta: float, gamma: float) -> None:
         )
 
 
-class Newmark:
+class NewmarkSteps:
+    """The Newmark (β, γ) steps on a vector space of the subclass's own (THEORY.md §2): the
+    predictors and the free step, the link correction, the trapezoidal increment. They reach
+    the operators only through ``solve`` (M̃⁻¹), ``mass_action``, ``stiffness_action``,
+    ``damping_action``, ``interface_force`` and ``load``, and ``_constrain`` clears what a
+    right-hand side must not drive (a field's clamped DOFs). :class:`Newmark` (the field, sparse
+    Cholesky) and crane_fem.integrators.newmark_reduced.ReducedNewmark (Craig–Bampton
+    coordinates, diagonal) share them."""
+
+    u: FloatArray
+    v: FloatArray
+    a: FloatArray
+    dT: float
+    beta: float
+    gamma: float
+    load: LoadFunction
+
+    def solve(self, rhs: FloatArray) -> FloatArray:
+        raise NotImplementedError
+
+    def mass_action(self, x: FloatArray) -> FloatArray:
+        raise NotImplementedError
+
+    def stiffness_action(self, x: FloatArray) -> FloatArray:
+        raise NotImplementedError
+
+    def damping_action(self, x: FloatArray, mx: FloatArray | None = None) -> FloatArray:
+        raise NotImplementedError
+
+    def interface_force(self, force: FloatArray) -> FloatArray:
+        raise NotImplementedError
+
+    def _constrain(self, rhs: FloatArray) -> FloatArray:
+        """``rhs`` with the rows no load may drive cleared (none here)."""
+        return rhs
+
+    def mass_and_damping(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """(M x, C x) with one mass product (collective)."""
+        mx = self.mass_action(x)
+        return mx, self.damping_action(x, mx)
+
+    def free_step(self, t_new: float) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """(U, V, A) at t_new with Λ = 0 at t_new; the state is not changed (collective)."""
+        dT, b, g = self.dT, self.beta, self.gamma
+        ut = self.u + dT * self.v + dT * dT * (0.5 - b) * self.a
+        vt = self.v + dT * (1.0 - g) * self.a
+        rhs = self.load(t_new) - self.stiffness_action(ut) - self.damping_action(vt)
+        a = self.solve(self._constrain(rhs))
+        return ut + b * dT * dT * a, vt + g * dT * a, a
+
+    def trapezoid_free_increment(self, f0: FloatArray, f1: FloatArray) -> FloatArray:
+        """ΔU over one step of the trapezoidal rule (β = ¼, γ = ½) without link force, in
+        its displacement–velocity form (no acceleration, so a link force may jump at t_n):
+
+            M̃ ΔU = ΔT M V_n + ¼ΔT² (F_n + F_n+1) − ½ΔT² K U_n,   V_n+1 = 2ΔU/ΔT − V_n.
+
+        A constant link force G over the step adds ½ΔT² M̃⁻¹ Lᵀ G (collective)."""
+        if (self.beta, self.gamma) != (0.25, 0.5):
+            raise ValueError("the trapezoidal increment needs beta = 1/4, gamma = 1/2")
+        dT = self.dT
+        rhs = dT * self.mass_action(self.v) + 0.25 * dT * dT * (f0 + f1)
+        rhs -= 0.5 * dT * dT * self.stiffness_action(self.u)
+        return self.solve(self._constrain(rhs))
+
+    def accept(self, u: FloatArray, v: FloatArray, a: FloatArray) -> None:
+        self.u, self.v, self.a = u, v, a
+
+    def link_response(self, force: FloatArray) -> FloatArray:
+        """M̃⁻¹ Lᵀ Λ for link forces Λ (n_Γ, global, the same on every rank) (collective)."""
+        return self.solve(self.interface_force(force))
+
+    def correct(self, force: FloatArray) -> None:
+        """Add the response to link forces Λ (n_Γ, N) applied at the current time
+        (collective)."""
+        if force.size == 0:
+            return
+        da = self.link_response(force)
+        self.a = self.a + da
+        self.v = self.v + self.gamma * self.dT * da
+        self.u = self.u + self.beta * self.dT * self.dT * da
+
+
+class Newmark(NewmarkSteps):
     """Newmark (β, γ) on one subdomain; owns its operator, KSPs and vectors (``destroy``).
 
     Arrays are owned-DOF arrays. Collective over the model's communicator.
@@ -206,11 +288,6 @@ class Newmark:
             out += m.beta * self.stiffness_action(x)
         return out
 
-    def mass_and_damping(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """(M x, C x) with one mass product (collective)."""
-        mx = self.mass_action(x)
-        return mx, self.damping_action(x, mx)
-
     def initialize(self, t0: float, link: FloatArray | None = None) -> None:
         """A_0 from M A_0 = F_0 − K U_0 − C V_0 (+ link force) (collective)."""
         rhs = self.load(t0) - self.stiffness_action(self.u) - self.damping_action(self.v)
@@ -222,33 +299,10 @@ class Newmark:
         else:
             self.a = np.where(self._fixed, 0.0, rhs / np.where(self._fixed, 1.0, self.model.mass))
 
-    def free_step(self, t_new: float) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """(U, V, A) at t_new with Λ = 0 at t_new; the state is not changed (collective)."""
-        dT, b, g = self.dT, self.beta, self.gamma
-        ut = self.u + dT * self.v + dT * dT * (0.5 - b) * self.a
-        vt = self.v + dT * (1.0 - g) * self.a
-        rhs = self.load(t_new) - self.stiffness_action(ut) - self.damping_action(vt)
+    def _constrain(self, rhs: FloatArray) -> FloatArray:
+        """``rhs`` with the clamped DOFs' rows cleared."""
         rhs[self._fixed] = 0.0
-        a = self.solve(rhs)
-        return ut + b * dT * dT * a, vt + g * dT * a, a
-
-    def trapezoid_free_increment(self, f0: FloatArray, f1: FloatArray) -> FloatArray:
-        """ΔU over one step of the trapezoidal rule (β = ¼, γ = ½) without link force, in
-        its displacement–velocity form (no acceleration, so a link force may jump at t_n):
-
-            M̃ ΔU = ΔT M V_n + ¼ΔT² (F_n + F_n+1) − ½ΔT² K U_n,   V_n+1 = 2ΔU/ΔT − V_n.
-
-        A constant link force G over the step adds ½ΔT² M̃⁻¹ Lᵀ G (collective)."""
-        if (self.beta, self.gamma) != (0.25, 0.5):
-            raise ValueError("the trapezoidal increment needs beta = 1/4, gamma = 1/2")
-        dT = self.dT
-        rhs = dT * self.mass_action(self.v) + 0.25 * dT * dT * (f0 + f1)
-        rhs -= 0.5 * dT * dT * self.stiffness_action(self.u)
-        rhs[self._fixed] = 0.0
-        return self.solve(rhs)
-
-    def accept(self, u: FloatArray, v: FloatArray, a: FloatArray) -> None:
-        self.u, self.v, self.a = u, v, a
+        return rhs
 
     # The implicit side as the coupling methods see it (crane_fem.coupling.system): vectors of
     # its own space, read and loaded through the interface rows.
@@ -282,20 +336,6 @@ class Newmark:
             self.interface,
             self.consistent,
         )
-
-    def link_response(self, force: FloatArray) -> FloatArray:
-        """M̃⁻¹ Lᵀ Λ for link forces Λ (n_Γ, global, the same on every rank) (collective)."""
-        return self.solve(self.interface_force(force))
-
-    def correct(self, force: FloatArray) -> None:
-        """Add the response to link forces Λ (n_Γ, N) applied at the current time
-        (collective)."""
-        if force.size == 0:
-            return
-        da = self.link_response(force)
-        self.a = self.a + da
-        self.v = self.v + self.gamma * self.dT * da
-        self.u = self.u + self.beta * self.dT * self.dT * da
 
     def destroy(self) -> None:
         self.ksp.destroy()

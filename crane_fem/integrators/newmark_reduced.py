@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg
 
-from crane_fem.integrators.newmark import check_newmark_parameters
+from crane_fem.integrators.newmark import NewmarkSteps, check_newmark_parameters
 from crane_fem.loading.body import AffineLoad
 from crane_fem.model import StructuralModel
 from crane_fem.reduction import CraigBampton
@@ -80,7 +80,7 @@ def reduced_modes(basis: CraigBampton) -> ReducedModes:
     return ReducedModes(k, Psi, lam, R, kappa, P, PT, mass, np.concatenate([lam, kappa]))
 
 
-class ReducedNewmark:
+class ReducedNewmark(NewmarkSteps):
     """Newmark on reduced coordinates, in the reduced system's modes (no step communicates;
     the vectors it takes and returns are modal coordinates z, see the module docstring).
 
@@ -121,7 +121,7 @@ class ReducedNewmark:
                 ),
                 load.histories,
             )
-        self.load = load
+        self.load = self._modal_load = load  # (the latter typed: ``refined`` passes it on)
         alpha, beta_r = model.alpha, model.beta
         #: C_z = α M_z + β K_z and Ã = M_z + γΔT C_z + βΔT² K_z, diagonal.
         self.c = alpha * md.mass + beta_r * md.stiff
@@ -157,9 +157,6 @@ class ReducedNewmark:
         """C x (diagonal)."""
         return np.asarray(self.c * x)
 
-    def mass_and_damping(self, x: FloatArray) -> tuple[FloatArray, FloatArray]:
-        return self.mass_action(x), self.damping_action(x)
-
     def initialize(self, t0: float, link: FloatArray | None = None) -> None:
         """A_0 from M A_0 = F_0 − K U_0 − C V_0 (+ link force) on the coordinates that carry
         mass; the static ones are in balance at the start (their acceleration is zero)."""
@@ -167,26 +164,6 @@ class ReducedNewmark:
         if link is not None:
             rhs = rhs + link
         self.a = np.asarray(self.modes.mass * rhs)
-
-    def free_step(self, t_new: float) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """(U, V, A) at t_new with Λ = 0 at t_new; the state is not changed."""
-        dT, b, g = self.dT, self.beta, self.gamma
-        ut = self.u + dT * self.v + dT * dT * (0.5 - b) * self.a
-        vt = self.v + dT * (1.0 - g) * self.a
-        a = self._inv_A * (self.load(t_new) - self.modes.stiff * ut - self.c * vt)
-        return ut + b * dT * dT * a, vt + g * dT * a, a
-
-    def trapezoid_free_increment(self, f0: FloatArray, f1: FloatArray) -> FloatArray:
-        """ΔU of the trapezoidal rule without link force (Newmark.trapezoid_free_increment)."""
-        if (self.beta, self.gamma) != (0.25, 0.5):
-            raise ValueError("the trapezoidal increment needs beta = 1/4, gamma = 1/2")
-        dT = self.dT
-        rhs = dT * self.mass_action(self.v) + 0.25 * dT * dT * (f0 + f1)
-        rhs -= 0.5 * dT * dT * self.stiffness_action(self.u)
-        return self.solve(rhs)
-
-    def accept(self, u: FloatArray, v: FloatArray, a: FloatArray) -> None:
-        self.u, self.v, self.a = u, v, a
 
     def interface_values(self, x: FloatArray) -> FloatArray:
         """L_I x = P η (replicated: no communication)."""
@@ -215,7 +192,7 @@ class ReducedNewmark:
         out = ReducedNewmark(
             self.model,
             self.basis,
-            self.load,
+            self._modal_load,
             dT,
             self.u,
             self.v,
@@ -225,19 +202,6 @@ class ReducedNewmark:
         )
         out.a = self.a.copy()
         return out
-
-    def link_response(self, force: FloatArray) -> FloatArray:
-        """M̃⁻¹ Lᵀ Λ."""
-        return self.solve(self.interface_force(force))
-
-    def correct(self, force: FloatArray) -> None:
-        """Add the response to link forces Λ applied at the current time."""
-        if force.size == 0:
-            return
-        da = self.link_response(force)
-        self.a = self.a + da
-        self.v = self.v + self.gamma * self.dT * da
-        self.u = self.u + self.beta * self.dT * self.dT * da
 
     def destroy(self) -> None:
         return None
