@@ -189,14 +189,8 @@ def create_craig_bampton(
     coeff_local[interface.rows] = interface.coeffs
     coeff = np.empty(n_b)
     comm.Allreduce(coeff_local, coeff)
-    boundary = np.zeros(n_own, dtype=bool)
-    boundary[interface.dofs] = True
-    interior = np.flatnonzero(~boundary & ~model.fixed).astype(np.int64)
-    n_int = comm.allreduce(int(interior.size), op=MPI.SUM)
-    if modes is not None and modes > n_int:
-        raise ScenarioError(
-            f"subdomain.modes = {modes} exceeds the {n_int} interior DOFs of the reduced subdomain"
-        )
+    interior, n_int = interior_dofs(model, interface)
+    check_modes(modes, n_int)
     # (petsc4py's stubs want a Sequence and a PETSc.Comm: an ndarray and an mpi4py comm work.)
     iset = PETSc.IS().createGeneral(
         (r0 + interior).astype(PETSc.IntType),  # type: ignore[arg-type]
