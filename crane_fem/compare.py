@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from crane_fem.peaks import LIFT_GAP, LIFT_HEIGHT
 from crane_fem.plotting import Run, load_runs
 from crane_fem.scenario import COUPLED_METHODS
 
@@ -37,9 +38,6 @@ __all__ = [
 ]
 
 FloatArray = npt.NDArray[np.float64]
-
-LIFT_GAP = 1e-6  # m: a wheel is off its rail when all its pairs are open by more than this
-LIFT_HEIGHT = 1e-4  # m: a lift-off is a flight higher than this; lower ones are chatter
 
 
 def separations(t: FloatArray, gap: FloatArray, lift_gap: float = LIFT_GAP) -> list[list[float]]:

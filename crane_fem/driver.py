@@ -21,6 +21,7 @@ from crane_fem.energy import BALANCE_TERMS
 from crane_fem.errors import UnstableRunError
 from crane_fem.integrators import CDLagrange, CDPenalty, MoreauJean, StepRecord, TimeIntegrator
 from crane_fem.io import HistoryWriter, XDMFSeries
+from crane_fem.peaks import ContactPeaks
 from crane_fem.problems import Problem, create_problem
 from crane_fem.run_record import RunResult, finish_summary, progress_bar
 from crane_fem.scenario import Scenario
@@ -146,6 +147,7 @@ def run_scenario(
     }
     times: list[float] = []
     active: list[bool] = []
+    peaks = ContactPeaks(groups, dt)
     total0: float | None = None
     scale = 0.0
     max_drift = 0.0
@@ -167,6 +169,11 @@ def run_scenario(
                 force = rec.impulse / dt
                 times.append(rec.t)
                 active.append(bool(np.any(rec.impulse > 0.0)))
+                peaks.update(
+                    np.array([rec.t]),
+                    contacts.group_sums(rec.impulse)[None, :],
+                    contacts.group_mins(rec.gaps)[None, :],
+                )
                 if rec.step % every == 0 or rec.step == sim.n_steps:
                     row = {"t": rec.t, **en.as_dict()}
                     row["contact_force"] = float(force.sum())
@@ -203,6 +210,8 @@ def run_scenario(
         if xdmf is not None:
             xdmf.close()
         summary["steps_done"] = len(times) - 1
+        if groups:  # every step's peaks, whatever output.every
+            summary["contact_groups"] = peaks.table()
         finish_summary(summary, out, comm, t_wall, times, active, max_drift, scale)
         sim.destroy()
         comm.barrier()

@@ -11,7 +11,8 @@
   balance (``total``) of each run;
 - ``fig8_interface_energy.png``: the energy dissipated at the explicit/implicit interface, and
   as a fraction of the external work;
-- ``contact_forces.png``: contact force per wheel, runs overlaid;
+- ``contact_forces.png``: contact force per wheel, runs overlaid, each run's peak (from
+  every micro step, summary.json) marked;
 - ``render_peak.png``: the deformed crane at the time of peak response, coloured by von Mises
   stress (pyvista off-screen, from the XDMF output), when the run wrote XDMF.
 """
@@ -169,6 +170,19 @@ def _interface_figure(runs: list[Run], path: Path) -> Path | None:
     return _save(fig, path)
 
 
+def _peak(run: Run, group: str) -> tuple[float, float] | None:
+    """(time, force) of a contact group's peak in the run's summary (``wheels`` for the
+    crane's ``wheel_<k>`` groups, else ``contact_groups``), or None."""
+    s: dict[str, Any] = dict(run.summary)
+    if group.startswith("wheel_") and "wheels" in s:
+        entry = s["wheels"].get(group.removeprefix("wheel_"))
+    else:
+        entry = s.get("contact_groups", {}).get(group)
+    if not entry:
+        return None
+    return float(entry["peak_force_time_s"]), float(entry["peak_force_N"])
+
+
 def _force_figure(runs: list[Run], path: Path) -> Path | None:
     import matplotlib.pyplot as plt
 
@@ -182,7 +196,19 @@ def _force_figure(runs: list[Run], path: Path) -> Path | None:
         ax = axes[i, 0]
         for run in runs:
             if name in run.history:
-                ax.plot(run.history["t"], run.history[name], lw=0.8, label=run.label)
+                (line,) = ax.plot(run.history["t"], run.history[name], lw=0.8, label=run.label)
+                # The peak from every micro step (summary.json), which the rows may miss.
+                peak = _peak(run, name[6:])
+                if peak is not None:
+                    ax.plot(*peak, "v", color=line.get_color(), ms=6)
+                    ax.annotate(
+                        f"{peak[1] / 1e3:.1f} kN",
+                        peak,
+                        textcoords="offset points",
+                        xytext=(4, 2),
+                        fontsize=7,
+                        color=line.get_color(),
+                    )
         ax.set_ylabel(f"{name[6:]}\n(N)")
         ax.grid(alpha=0.3)
     axes[0, 0].legend(fontsize=8)

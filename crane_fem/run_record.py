@@ -42,8 +42,8 @@ def finish_summary(
     out: Path,
     comm: MPI.Comm,
     t_wall: float,
-    times: list[float],
-    active: list[bool],
+    times: FloatArray | list[float],
+    active: npt.NDArray[np.bool_] | list[bool],
     max_drift: float,
     scale: float,
 ) -> None:
@@ -61,18 +61,11 @@ def finish_summary(
     write_summary(out / "summary.json", summary, comm)
 
 
-def _contact_intervals(times: list[float], active: list[bool]) -> list[tuple[float, float]]:
+def _contact_intervals(
+    times: FloatArray | list[float], active: npt.NDArray[np.bool_] | list[bool]
+) -> list[tuple[float, float]]:
     """Maximal runs of consecutive steps with a non-zero contact impulse: (first, last) times."""
-    out: list[tuple[float, float]] = []
-    start: float | None = None
-    last = 0.0
-    for t, a in zip(times, active, strict=True):
-        if a and start is None:
-            start = t
-        if not a and start is not None:
-            out.append((start, last))
-            start = None
-        last = t
-    if start is not None:
-        out.append((start, last))
-    return out
+    t = np.asarray(times, dtype=np.float64)
+    on = np.asarray(active, dtype=bool)
+    edges = np.flatnonzero(np.diff(np.r_[np.int8(0), on.astype(np.int8), np.int8(0)]))
+    return [(float(t[a]), float(t[b - 1])) for a, b in zip(edges[::2], edges[1::2], strict=True)]

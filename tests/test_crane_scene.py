@@ -257,9 +257,17 @@ def test_quick_scene_mpiexec_same_histories(tmp_path, method) -> None:
         env=mpiexec_env(),
     )
     s2 = json.loads((par / "summary.json").read_text())
+    s1 = json.loads((serial / "summary.json").read_text())
     assert s2["mpi_size"] == 2
+    # The wheels' peaks, read from every micro step: the same lift-offs, and the peak force,
+    # its time and the uplift to round-off.
+    for k, w1 in s1["wheels"].items():
+        w2 = s2["wheels"][k]
+        assert w2["lift_offs"]["count"] == w1["lift_offs"]["count"]
+        assert w2["peak_force_time_s"] == pytest.approx(w1["peak_force_time_s"], rel=1e-12)
+        assert w2["peak_force_N"] == pytest.approx(w1["peak_force_N"], rel=1e-8)
+        assert w2["max_uplift_m"] == pytest.approx(w1["max_uplift_m"], rel=1e-8)
     if method == "hybrid":
-        s1 = json.loads((serial / "summary.json").read_text())
         assert s2["hybrid_steps"] == s1["hybrid_steps"]
         assert all(n > 0 for n in s1["hybrid_steps"].values())
     assert all(n > 0 for n in s2["contact_dofs_per_rank"]), s2["contact_dofs_per_rank"]

@@ -45,6 +45,8 @@ def _compare(
         np.zeros_like(out.lam),
         np.zeros_like(out.gaps),
         np.zeros_like(out.active),
+        np.zeros_like(out.group_impulse),
+        np.zeros_like(out.group_gap),
         np.zeros_like(out.sums),
         np.zeros_like(out.impulse_trap),
         np.zeros_like(out.impulse_sum),
@@ -54,8 +56,8 @@ def _compare(
     )
     twin.run_steps(F.zone, op if op is not None else E._no_op, F.state, ctl, ref)
 
-    def close(a: np.ndarray, b: np.ndarray, what: str) -> None:
-        scale = max(float(np.max(np.abs(b), initial=0.0)), 1e-300)
+    def close(a: np.ndarray, b: np.ndarray, what: str, like: np.ndarray | None = None) -> None:
+        scale = max(float(np.max(np.abs(b if like is None else like), initial=0.0)), 1e-300)
         assert np.max(np.abs(a - b), initial=0.0) <= rtol * scale, what
 
     for name in ("u", "vh", "v_int", "ku"):
@@ -67,6 +69,11 @@ def _compare(
     close(out.impulses, ref.impulses, "impulses")
     close(out.w, ref.w, "w")
     assert np.array_equal(out.active, ref.active)
+    close(out.group_impulse, ref.group_impulse, "group_impulse")
+    fin = np.isfinite(ref.group_gap)  # (a group without points has no gap)
+    assert np.array_equal(fin, np.isfinite(out.group_gap))
+    # (in the scale of all the gaps: the closed groups' gaps are round-off)
+    close(out.group_gap[fin], ref.group_gap[fin], "group_gap", like=ref.gaps)
     assert np.array_equal(out.flags, ref.flags)
     energy = max(float(np.max(np.abs(ref.sums[:4]))), 1e-300)
     assert np.max(np.abs(out.sums[:4] - ref.sums[:4])) <= rtol * energy

@@ -20,7 +20,7 @@ import numpy.typing as npt
 import scipy.linalg
 
 from crane_fem.coupling.protocol import MethodBase
-from crane_fem.coupling.system import CoupledSystem, MacroRecord
+from crane_fem.coupling.system import CoupledSystem, MacroRecord, MicroTrace
 from crane_fem.errors import CraneFemError
 from crane_fem.integrators.explicit_zone import ExplicitZone
 from crane_fem.kernels import explicit as kx
@@ -93,9 +93,7 @@ class ECStep:
 
     __slots__ = ("G", "gaps", "lam", "micro")
 
-    def __init__(
-        self, lam: FloatArray, gaps: FloatArray, micro: list[tuple[float, bool]], G: FloatArray
-    ) -> None:
+    def __init__(self, lam: FloatArray, gaps: FloatArray, micro: MicroTrace, G: FloatArray) -> None:
         self.lam, self.gaps, self.micro, self.G = lam, gaps, micro, G
 
 
@@ -202,7 +200,7 @@ class EnergyConserving(MethodBase):
         self.passes.append(k + 1)
         self.residual = max(self.residual, _amax(r) / scale)
         s.trapezoid_finish(st, G, dT * G, out)  # the work of G on both sides: Gᵀ r
-        return ECStep(out.lam, out.gaps, s.micro_flags(t0, out), G)
+        return ECStep(out.lam, out.gaps, s.micro_trace(t0, out), G)
 
     def summary(self) -> dict[str, Any]:
         if not self.passes:

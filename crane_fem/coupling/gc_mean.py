@@ -66,7 +66,7 @@ class GCMean(MethodBase):
         closed_form = 0.5 * (m * sq - float(S @ (I.W @ S)))
         self.identity_error = max(self.identity_error, abs(-link - closed_form))
         s.n += 1
-        return s.record(out.lam, out.gaps, s.micro_flags(t0, out), G.copy())
+        return s.record(out.lam, out.gaps, s.micro_trace(t0, out), G.copy())
 
     def summary(self) -> dict[str, Any]:
         return {"interface_identity_error": self.identity_error}

@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from crane_fem.coupling.protocol import MethodBase
-from crane_fem.coupling.system import CoupledSystem, MacroRecord
+from crane_fem.coupling.system import CoupledSystem, MacroRecord, MicroTrace
 from crane_fem.kernels import explicit as kx
 
 __all__ = ["GCStep", "GravouilCombescure"]
@@ -39,9 +39,7 @@ class GCStep:
 
     __slots__ = ("changed", "gaps", "lam", "micro")
 
-    def __init__(
-        self, lam: FloatArray, gaps: FloatArray, micro: list[tuple[float, bool]], changed: bool
-    ) -> None:
+    def __init__(self, lam: FloatArray, gaps: FloatArray, micro: MicroTrace, changed: bool) -> None:
         self.lam, self.gaps, self.micro, self.changed = lam, gaps, micro, changed
 
 
@@ -103,4 +101,4 @@ class GravouilCombescure(MethodBase):
         # products of reduced interface vectors).
         gc_e, phys_e = float(out.sums[kx.GC_WORK]), float(out.sums[kx.PHYS_WORK])
         s.book_interface(link_e + link_i, gc_e + link_i, phys_e + phys_i)
-        return GCStep(out.lam, out.gaps, s.micro_flags(t0, out), bool(out.flags[kx.CHANGED]))
+        return GCStep(out.lam, out.gaps, s.micro_trace(t0, out), bool(out.flags[kx.CHANGED]))

@@ -19,7 +19,7 @@ import numpy.typing as npt
 from crane_fem.coupling.energy_conserving import EnergyConserving
 from crane_fem.coupling.gravouil_combescure import GCStep, GravouilCombescure
 from crane_fem.coupling.protocol import MethodBase
-from crane_fem.coupling.system import CoupledSystem, ImplicitSide, MacroRecord
+from crane_fem.coupling.system import CoupledSystem, ImplicitSide, MacroRecord, MicroTrace
 from crane_fem.kernels import explicit as kx
 
 __all__ = ["Hybrid"]
@@ -102,15 +102,15 @@ class Hybrid(MethodBase):
         fine, gc_fine = self._fine
         fine.u, fine.v, fine.a = I.u.copy(), I.v.copy(), I.a.copy()
         s.use_implicit(fine, r)
-        micro: list[tuple[float, bool]] = []
+        micro: list[MicroTrace] = []
         try:
             for i in range(m // r):
                 res = gc_fine.macro(t0 + i * r * s.dt)
-                micro += res.micro
+                micro.append(res.micro)
         finally:
             I.u, I.v, I.a = fine.u.copy(), fine.v.copy(), fine.a.copy()
             s.use_implicit(I, m)
-        return GCStep(res.lam, res.gaps, micro, False)
+        return GCStep(res.lam, res.gaps, MicroTrace.concat(micro), False)
 
     def summary(self) -> dict[str, Any]:
         return {"hybrid_steps": dict(self.steps_taken), **self.ec.summary()}

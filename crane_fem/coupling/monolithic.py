@@ -10,7 +10,7 @@ import math
 import numpy as np
 
 from crane_fem.coupling.protocol import MethodBase
-from crane_fem.coupling.system import CoupledSystem, MacroRecord
+from crane_fem.coupling.system import CoupledSystem, MacroRecord, MicroTrace
 from crane_fem.kernels import explicit as kx
 
 __all__ = ["ExplicitAlone", "ImplicitAlone"]
@@ -56,7 +56,7 @@ class ExplicitAlone(_Alone):
         s.explicit_balance(out)
         self.done += n
         s.n += 1
-        return self._record(s.record(out.lam, out.gaps, s.micro_flags(t0, out)))
+        return self._record(s.record(out.lam, out.gaps, s.micro_trace(t0, out)))
 
 
 class ImplicitAlone(_Alone):
@@ -83,4 +83,4 @@ class ImplicitAlone(_Alone):
             s.implicit_balance(uI0, vI0, f0, I.load(t1), cv0, None)
             self.done += 1
         s.n += 1
-        return self._record(s.record(np.zeros(0), np.zeros(0), []))
+        return self._record(s.record(np.zeros(0), np.zeros(0), MicroTrace.empty()))

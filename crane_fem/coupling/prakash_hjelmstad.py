@@ -133,7 +133,7 @@ class PrakashHjelmstad(MethodBase):
         gc_e, phys_e = float(out.sums[kx.GC_WORK]), float(out.sums[kx.PHYS_WORK])
         s.book_interface(link_e + link_i, gc_e + link_i, phys_e + phys_i)
         s.n += 1
-        return s.record(out.lam, out.gaps, s.micro_flags(t0, out))
+        return s.record(out.lam, out.gaps, s.micro_trace(t0, out))
 
     def _state(self, t: float, lam_force: FloatArray) -> tuple[float, FloatArray, FloatArray]:
         """(S_E, V_E, F_E) at the macro time t: the storage of the explicit side for its

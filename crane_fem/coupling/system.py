@@ -29,6 +29,7 @@ __all__ = [
     "CoupledSystem",
     "ImplicitSide",
     "MacroRecord",
+    "MicroTrace",
     "Snapshot",
     "TrapezoidStep",
 ]
@@ -89,6 +90,33 @@ class ImplicitSide(Protocol):
 
 
 @dataclass
+class MicroTrace:
+    """The micro steps of a macro step (global values, the same on every rank): their times,
+    whether a contact impulse acted, and per contact group (columns) the summed contact
+    impulse (N·s) and the smallest gap (m; +inf for a group without points)."""
+
+    t: FloatArray
+    active: npt.NDArray[np.bool_]
+    impulse: FloatArray
+    gap: FloatArray
+
+    @classmethod
+    def empty(cls, n_groups: int = 0) -> MicroTrace:
+        z = np.zeros((0, n_groups))
+        return cls(np.zeros(0), np.zeros(0, dtype=bool), z, z.copy())
+
+    @classmethod
+    def concat(cls, traces: list[MicroTrace]) -> MicroTrace:
+        """The traces one after the other (the refined steps of a macro step)."""
+        return cls(
+            np.concatenate([tr.t for tr in traces]),
+            np.concatenate([tr.active for tr in traces]),
+            np.concatenate([tr.impulse for tr in traces]),
+            np.concatenate([tr.gap for tr in traces]),
+        )
+
+
+@dataclass
 class MacroRecord:
     """State at a synchronisation time t (macro step ``step``); energies are global."""
 
@@ -103,7 +131,7 @@ class MacroRecord:
     contact_impulse: FloatArray
     gaps: FloatArray
     interface_impulse: FloatArray
-    micro: list[tuple[float, bool]] = field(default_factory=list)
+    micro: MicroTrace = field(default_factory=MicroTrace.empty)
     #: ‖S_E‖ (N·s): the interface impulse the explicit side received since t = 0 (gc/ph:
     #: S_E = Σ ½Δt (Λ_j−1 + Λ_j), trapezoid like the implicit side's; ec: Σ Δt G).
     impulse_explicit: float = 0.0
@@ -185,6 +213,7 @@ class CoupledSystem:
         self.dt = explicit.dt if explicit is not None else float(dt)
         self.dT = self.m * self.dt
         self.n_gamma = explicit.n_gamma if (explicit is not None and self.coupled) else 0
+        self.n_groups = explicit.zone.n_groups if explicit is not None else 0
         side = explicit.model if explicit is not None else implicit.model  # type: ignore[union-attr]
         self.comm: MPI.Comm = side.comm
         self.acc = dict.fromkeys(ENERGY_KEYS, 0.0)
@@ -256,13 +285,13 @@ class CoupledSystem:
             E.state.lam_prev[:] = E.dt * lam0
             self.lam_macro_prev = lam0.copy()
         # The first impulses act over Δt/2: as forces, 2 Λ̂ / Δt.
-        return self.record(2.0 * lam, gaps, [])
+        return self.record(2.0 * lam, gaps, MicroTrace.empty(self.n_groups))
 
     def record(
         self,
         lam: FloatArray,
         gaps: FloatArray,
-        micro: list[tuple[float, bool]],
+        micro: MicroTrace,
         interface_impulse: FloatArray | None = None,
     ) -> MacroRecord:
         """The record at the current synchronisation time: ``lam`` and ``gaps`` over the
@@ -312,10 +341,11 @@ class CoupledSystem:
             jump,
         )
 
-    def micro_flags(self, t0: float, out: kx.StepsOut) -> list[tuple[float, bool]]:
-        """(t_j, a contact impulse acted) for the micro steps of a kernel call from t0."""
-        dt = self.dt
-        return [(t0 + (j + 1) * dt, bool(a)) for j, a in enumerate(out.active)]
+    def micro_trace(self, t0: float, out: kx.StepsOut) -> MicroTrace:
+        """The micro steps of a kernel call from t0: t_j = t0 + jΔt, and what ``out`` holds
+        of each."""
+        t = t0 + np.arange(1, out.active.size + 1, dtype=np.float64) * self.dt
+        return MicroTrace(t, out.active.copy(), out.group_impulse, out.group_gap)
 
     # ------------------------------------------------------------------------------------
     def explicit_balance(self, out: kx.StepsOut) -> float:

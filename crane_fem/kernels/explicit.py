@@ -237,6 +237,17 @@ def _micro(
         if lam_c[c] > 0.0:
             active = True
     out.active[jj] = active
+    # Per contact group: the impulse and the smallest gap of this micro step (the peaks and
+    # lift-offs are read from every micro step, whatever the output rate).
+    g_imp, g_gap, c_group = out.group_impulse, out.group_gap, z.c_group
+    for k in range(z.n_groups):
+        g_imp[jj, k] = 0.0
+        g_gap[jj, k] = np.inf
+    for c in range(pc):
+        k = c_group[c]
+        g_imp[jj, k] += lam_c[c]
+        if gaps[n_g + c] < g_gap[jj, k]:
+            g_gap[jj, k] = gaps[n_g + c]
     if ctl.watch.size > 0 and out.flags[CHANGED] == 0:
         for c in range(pc):
             if closed[c] != ctl.watch[c]:

@@ -100,6 +100,9 @@ def run_steps(
         out.sums[kx.CONTACT] += float(v_mid @ jump_c)
         out.sums[kx.LINK] += float(v_mid @ (jump - jump_c))
         out.active[jj] = bool(np.any(lam[n_g:] > 0.0))
+        grp = np.arange(z.n_groups)[:, None] == z.c_group[None, :]
+        out.group_impulse[jj] = grp @ lam[n_g:]
+        out.group_gap[jj] = np.where(grp, gaps[None, n_g:], np.inf).min(axis=1, initial=np.inf)
         if ctl.watch.size and not out.flags[kx.CHANGED] and np.any(closed != ctl.watch):
             out.flags[kx.CHANGED] = 1
         if n_g:

@@ -78,6 +78,10 @@ class Zone(NamedTuple):
     c_dofs: IntArray
     g0: FloatArray
     tol: float
+    #: The contact group of each contact point (p − n_g), and the number of groups: the
+    #: kernel sums each group's impulses and takes its smallest gap at every micro step.
+    c_group: IntArray
+    n_groups: int
     #: Delassus blocks: diag of W_ΓΓ, W_cc (and its inverse for bilateral rows), W_Γc.
     w_gamma: FloatArray
     W_cc: FloatArray
@@ -166,14 +170,18 @@ class Steps(NamedTuple):
 
 class StepsOut(NamedTuple):
     """What a call returns: the last micro step's impulses and gaps (all stacked rows), per
-    micro step whether a contact impulse acted, the energy sums (local: external, damping,
-    contact and link work; global: the GC-measure and physical interface work), the interface
-    impulses summed (trapezoid and plain), each micro step's (``keep_impulses``), L_E V at the
-    last micro step, and flags (contact set changed, MPI error, singular LCP)."""
+    micro step whether a contact impulse acted and, per contact group, the summed contact
+    impulse and the smallest gap (``group_impulse``, ``group_gap``: (n, groups)), the energy
+    sums (local: external, damping, contact and link work; global: the GC-measure and
+    physical interface work), the interface impulses summed (trapezoid and plain), each
+    micro step's (``keep_impulses``), L_E V at the last micro step, and flags (contact set
+    changed, MPI error, singular LCP)."""
 
     lam: FloatArray
     gaps: FloatArray
     active: BoolArray
+    group_impulse: FloatArray
+    group_gap: FloatArray
     sums: FloatArray
     impulse_trap: FloatArray
     impulse_sum: FloatArray

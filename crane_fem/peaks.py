@@ -1,0 +1,102 @@
+"""Peaks of each contact group from every micro step: the largest contact force and its time,
+the largest gap (a wheel's uplift) and the lift-offs, whatever the output rate.
+
+A lift-off of a group (a wheel) is a separation, all its points open by more than
+``LIFT_GAP``, whose flight rises higher than ``LIFT_HEIGHT``; the short, low separations that
+follow an impact (chatter of the node-to-node contact, tens of micrometres) are not lift-offs.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["LIFT_GAP", "LIFT_HEIGHT", "ContactPeaks"]
+
+FloatArray = npt.NDArray[np.float64]
+
+LIFT_GAP = 1e-6  # m: a wheel is off its rail when all its pairs are open by more than this
+LIFT_HEIGHT = 1e-4  # m: a lift-off is a flight higher than this; lower ones are chatter
+
+
+class ContactPeaks:
+    """Running peaks of the contact groups ``names`` over the micro steps of a run (not
+    collective: the traces hold global values, the same on every rank).
+
+    Args:
+        names: the contact groups (the columns of the traces).
+        dt: the micro step (s): a micro step's force is its impulse / Δt.
+    """
+
+    def __init__(self, names: list[str], dt: float) -> None:
+        n = len(names)
+        self.names, self.dt = list(names), float(dt)
+        self.peak_force = np.zeros(n)
+        self.peak_time = np.zeros(n)
+        self.max_gap = np.full(n, -np.inf)
+        self.lift_offs: list[list[list[float]]] = [[] for _ in range(n)]
+        # The separation under way at the end of the last trace: onset time and height.
+        self._flying = np.zeros(n, dtype=bool)
+        self._onset = np.zeros(n)
+        self._height = np.zeros(n)
+        self._t_last = 0.0
+
+    def start(self, t: float, force: FloatArray, gap: FloatArray) -> None:
+        """The state at the start time: group forces (N) and smallest gaps (m)."""
+        self.update(np.array([t]), force[None, :] * self.dt, gap[None, :])
+
+    def update(self, t: FloatArray, impulse: FloatArray, gap: FloatArray) -> None:
+        """Take micro steps at times ``t`` (n,), in time order after the ones already taken,
+        with each group's impulse (N·s) and smallest gap (m), (n, groups)."""
+        if t.size == 0 or not self.names:
+            return
+        force = impulse / self.dt
+        j = np.argmax(force, axis=0)
+        cols = np.arange(len(self.names))
+        better = force[j, cols] > self.peak_force
+        self.peak_force[better] = force[j, cols][better]
+        self.peak_time[better] = t[j][better]
+        np.maximum(self.max_gap, gap.max(axis=0), out=self.max_gap)
+        off = gap > LIFT_GAP
+        for k in np.flatnonzero(off.any(axis=0) | self._flying):
+            self._separations(int(k), t, off[:, k], gap[:, k])
+        self._t_last = float(t[-1])
+
+    def _separations(
+        self, k: int, t: FloatArray, off: npt.NDArray[np.bool_], gap: FloatArray
+    ) -> None:
+        """Close and open group k's separations over one trace (a loop over its few edges)."""
+        edges = np.flatnonzero(np.diff(np.r_[np.int8(self._flying[k]), off.astype(np.int8)]))
+        a = 0
+        for e in edges.tolist():
+            if off[e]:  # a separation starts at step e
+                self._flying[k], self._onset[k], self._height[k] = True, t[e], 0.0
+                a = e
+            else:  # it ended at step e − 1
+                self._height[k] = max(self._height[k], float(gap[a:e].max(initial=0.0)))
+                self._land(k, float(t[e - 1]) if e > 0 else self._t_last)
+        if self._flying[k]:
+            self._height[k] = max(self._height[k], float(gap[a:].max(initial=0.0)))
+
+    def _land(self, k: int, t_end: float) -> None:
+        if self._height[k] > LIFT_HEIGHT:
+            self.lift_offs[k].append([float(self._onset[k]), t_end])
+        self._flying[k] = False
+
+    def table(self) -> dict[str, dict[str, Any]]:
+        """Per group: ``lift_offs`` (count, intervals [onset, end]; a flight still under way
+        ends at the last time), ``max_uplift_m``, ``peak_force_N``, ``peak_force_time_s``."""
+        out: dict[str, dict[str, Any]] = {}
+        for k, name in enumerate(self.names):
+            intervals = list(self.lift_offs[k])
+            if self._flying[k] and self._height[k] > LIFT_HEIGHT:
+                intervals.append([float(self._onset[k]), self._t_last])
+            out[name] = {
+                "lift_offs": {"count": len(intervals), "intervals": intervals},
+                "max_uplift_m": float(max(self.max_gap[k], 0.0)),
+                "peak_force_N": float(self.peak_force[k]),
+                "peak_force_time_s": float(self.peak_time[k]),
+            }
+        return out
