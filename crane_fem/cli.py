@@ -1,4 +1,5 @@
-"""The ``crane-fem`` command: ``run``, ``check`` and ``mesh`` a scenario; ``plot`` its outputs."""
+"""The ``crane-fem`` command: ``run``, ``check`` and ``mesh`` a scenario; ``plot`` its outputs;
+``bench`` the methods."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import argparse
 import sys
 import warnings
 from pathlib import Path
+from typing import Any
 
 from crane_fem import _compat  # noqa: F401  (MPI before dolfinx)
 from crane_fem.errors import CraneFemError
@@ -59,6 +61,24 @@ def _parser() -> argparse.ArgumentParser:
     mesh.add_argument(
         "--set", dest="overrides", action="append", default=[], metavar="KEY.PATH=VALUE"
     )
+    bench = sub.add_parser(
+        "bench",
+        help="run benchmark suites: speed against accuracy, stability, the crane ensemble",
+    )
+    bench.add_argument(
+        "suites",
+        nargs="*",
+        metavar="SUITE",
+        help="suites to run (default: stability pareto ensemble; also speed, reduction, "
+        "convergence)",
+    )
+    bench.add_argument("--quick", action="store_true", help="the quick variant (≤ 10 min)")
+    bench.add_argument(
+        "-o", "--output", type=Path, default=Path("benchmarks/out"), help="CSV and PNG go here"
+    )
+    bench.add_argument(
+        "--no-results", action="store_true", help="leave benchmarks/RESULTS.md unchanged"
+    )
     return parser
 
 
@@ -75,6 +95,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "plot":
             return _plot(args.outdir) if rank0 else 0
+        if args.command == "bench":
+            return _bench(args, comm)
         sc = load_scenario(args.scenario, args.overrides)
         if args.command == "mesh":
             from crane_fem.geometry.crane import write_crane_mesh
@@ -126,6 +148,42 @@ def main(argv: list[str] | None = None) -> int:
     except CraneFemError as exc:
         print(f"crane-fem: error: {exc}", file=sys.stderr)
         return 1
+
+
+def _bench(args: argparse.Namespace, comm: Any) -> int:
+    """Run the suites one after the other; their tables replace their blocks of RESULTS.md."""
+    import time
+
+    from crane_fem.bench import ALL_SUITES, SUITES, load_suite
+    from crane_fem.bench.report import RESULTS, update_results
+    from crane_fem.errors import ScenarioError
+
+    names = args.suites or SUITES
+    unknown = [n for n in names if n not in ALL_SUITES]
+    if unknown:
+        raise ScenarioError(
+            f"bench: unknown suite {unknown[0]!r} (expected one of {', '.join(ALL_SUITES)})"
+        )
+    command = (
+        "crane-fem bench"
+        + (" --quick" if args.quick else "")
+        + "".join(f" {n}" for n in args.suites)
+    )
+    t0 = time.perf_counter()
+    for name in names:
+        t = time.perf_counter()
+        sections = load_suite(name).run(args.output, args.quick)
+        if comm.rank == 0:
+            for sec in sections:
+                if not args.no_results:
+                    update_results(RESULTS, sec.key, sec.title, command, sec.body)
+                for f in sec.files:
+                    print(f"crane-fem: wrote {f}")
+            print(f"crane-fem: bench {name}: {time.perf_counter() - t:.0f} s")
+    if comm.rank == 0:
+        where = "" if args.no_results else f"; tables in {RESULTS}"
+        print(f"crane-fem: bench done in {(time.perf_counter() - t0) / 60:.1f} min{where}")
+    return 0
 
 
 def _plot(outdir: Path) -> int:
