@@ -412,6 +412,8 @@ class Output(_Section):
     every: PositiveInt = 1
     xdmf: bool = True
     xdmf_every: PositiveInt | None = None
+    #: Crane: the bridge's peak von Mises stress is evaluated every this many macro steps.
+    stress_every: PositiveInt = 1
     progress: bool | Literal["auto"] = "auto"
 
 
