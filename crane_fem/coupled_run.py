@@ -169,8 +169,9 @@ def _xdmf_writers(sc: Scenario, sim: Simulation, out: Path) -> list[tuple[Subdom
 
 class BridgeStress:
     """The peak von Mises stress over the crane's bridge cells (girders, end carriages, the
-    rails outside the explicit zones) every ``output.stress_every`` macro steps: of the implicit side in a
-    coupled run, of the whole mesh in the fully explicit one (collective)."""
+    rails outside the explicit zones) every ``output.stress_every`` macro steps: of the
+    implicit side in a coupled run, of the whole mesh in the fully explicit one
+    (collective)."""
 
     def __init__(self, sim: Simulation) -> None:
         md = sim.models

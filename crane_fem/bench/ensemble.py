@@ -71,6 +71,8 @@ FULL = [
             GC,
             ("gc-mean", {"coupling.method": "gc-mean"}),
             ("hybrid", {"coupling.method": "hybrid"}),
+            # m = 20: where (b) would need the macro step (the stress at the same times).
+            ("gc, m = 20", {"coupling.ratio": 20, "output.stress_every": 5}),
         ],
     ),
     Scene(
