@@ -70,7 +70,7 @@ def _parser() -> argparse.ArgumentParser:
         nargs="*",
         metavar="SUITE",
         help="suites to run (default: stability pareto ensemble; also speed, reduction, "
-        "convergence)",
+        "convergence, gc_stability)",
     )
     bench.add_argument("--quick", action="store_true", help="the quick variant (≤ 10 min)")
     bench.add_argument(
