@@ -6,7 +6,7 @@ NP ?= 2
 # Python >= 3.12: an explicit PYTHON, else python3.12 on PATH, else pyenv's newest 3.12.
 PYTHON ?= $(shell command -v python3.12 2>/dev/null || ls -d $$HOME/.pyenv/versions/3.12*/bin/python3.12 2>/dev/null | tail -n 1)
 
-.PHONY: install test lint test-serial test-mpi demo demo-bar bench clean
+.PHONY: install test lint test-serial test-mpi demo demo-bar bench bench-quick clean
 
 $(BIN)/.installed: pyproject.toml
 	@test -n "$(PYTHON)" || { echo "make: no Python 3.12 found (set PYTHON=/path/to/python3.12)"; exit 1; }
@@ -43,8 +43,13 @@ demo: $(BIN)/.installed
 demo-bar: $(BIN)/.installed
 	$(BIN)/crane-fem run demos/bar_impact.toml -o out/bar_impact
 
+# Speed against accuracy: the stability map, the Pareto chart and the crane ensemble; tables
+# into benchmarks/RESULTS.md, CSV and PNG into benchmarks/out/ (bench-quick: at most 10 min).
 bench: $(BIN)/.installed
-	$(BIN)/python benchmarks/convergence.py
+	OMP_NUM_THREADS=1 $(BIN)/crane-fem bench
+
+bench-quick: $(BIN)/.installed
+	OMP_NUM_THREADS=1 $(BIN)/crane-fem bench --quick
 
 clean:
 	rm -rf out .mypy_cache .ruff_cache
