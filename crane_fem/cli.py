@@ -74,7 +74,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     bench.add_argument("--quick", action="store_true", help="the quick variant (≤ 10 min)")
     bench.add_argument(
-        "-o", "--output", type=Path, default=Path("benchmarks/out"), help="CSV and PNG go here"
+        "-o",
+        "--output",
+        type=Path,
+        default=None,
+        help="CSV and PNG go here (default: benchmarks/out, benchmarks/out/quick with --quick)",
     )
     bench.add_argument(
         "--no-results", action="store_true", help="leave benchmarks/RESULTS.md unchanged"
@@ -169,10 +173,11 @@ def _bench(args: argparse.Namespace, comm: Any) -> int:
         + (" --quick" if args.quick else "")
         + "".join(f" {n}" for n in args.suites)
     )
+    out = args.output or Path("benchmarks/out") / ("quick" if args.quick else "")
     t0 = time.perf_counter()
     for name in names:
         t = time.perf_counter()
-        sections = load_suite(name).run(args.output, args.quick)
+        sections = load_suite(name).run(out, args.quick)
         if comm.rank == 0:
             for sec in sections:
                 if not args.no_results:
