@@ -5,8 +5,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from crane_fem.bench.common import Outcome, demo
-from crane_fem.bench.ensemble import _settings, judge, second_take_off
+from crane_fem.bench.common import Outcome, demo, explicit_settings
+from crane_fem.bench.ensemble import judge, second_take_off
 
 
 def _run(peak: float, count: int, stress: float, onsets: list[float]) -> Outcome:
@@ -55,10 +55,10 @@ def test_second_take_off_is_the_earliest_second_onset() -> None:
 def test_ensemble_members_keep_the_stress_times() -> None:
     """Δt × ½ halves the step: twice the macro steps between stress evaluations; the record
     scale multiplies the scene's."""
-    half = _settings(demo("crane"), 1.0, 0.5)
+    half = explicit_settings(demo("crane"), 1.0, 0.5)
     assert half["time.dt_factor"] == pytest.approx(0.45)
     assert half["output.stress_every"] == 2
     assert half["coupling.method"] == "monolithic"
-    up = _settings(demo("crane"), 1.005, 1.0)
+    up = explicit_settings(demo("crane"), 1.005, 1.0)
     assert up["loading.ground_motion.scale"] == pytest.approx(8.0 * 1.005)
     assert "time.dt_factor" not in up

@@ -19,7 +19,15 @@ from mpi4py import MPI
 from crane_fem.errors import UnstableRunError
 from crane_fem.scenario import Scenario, load_scenario
 
-__all__ = ["Outcome", "demo", "run_case", "run_script", "toml_value", "write_csv"]
+__all__ = [
+    "Outcome",
+    "demo",
+    "explicit_settings",
+    "run_case",
+    "run_script",
+    "toml_value",
+    "write_csv",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -34,6 +42,25 @@ def demo(name: str) -> Path:
     if not path.is_file():
         raise FileNotFoundError(f"{path}: demo scenario not found (run from a crane_fem checkout)")
     return path
+
+
+def explicit_settings(scene: Path, scale: float = 1.0, dt: float = 1.0) -> dict[str, Any]:
+    """The settings of a crane scene's fully explicit run with the record scaled by
+    ``scale`` and Δt by ``dt``, the girders' stress evaluated at the scene's physical times
+    (output.stress_every macro steps of ``ratio`` steps: twice as many of the halved step).
+    The suites that need the same run (the Pareto chart's reference, the ensemble's member)
+    get the same settings from here, and so share the run (:func:`run_case`)."""
+    sc = load_scenario(scene)
+    out: dict[str, Any] = {"coupling.method": "monolithic", "output.xdmf": False}
+    if scale != 1.0:
+        gm = sc.loading.ground_motion
+        assert gm is not None and not isinstance(gm, list)
+        out["loading.ground_motion.scale"] = gm.scale * scale
+    if dt != 1.0:
+        assert sc.time.dt_factor is not None
+        out["time.dt_factor"] = sc.time.dt_factor * dt
+        out["output.stress_every"] = round(sc.output.stress_every / dt)
+    return out
 
 
 def toml_value(value: Any) -> str:

@@ -29,8 +29,7 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from crane_fem.bench import Section
-from crane_fem.bench.common import Outcome, demo, run_case, write_csv
-from crane_fem.scenario import load_scenario
+from crane_fem.bench.common import Outcome, demo, explicit_settings, run_case, write_csv
 
 __all__ = ["NAME", "SUMMARY", "judge", "run"]
 
@@ -80,25 +79,6 @@ FULL = [
         [GC, ("gc-mean", {"coupling.method": "gc-mean"}), ("gc, reduced side N = 200", REDUCED)],
     ),
 ]
-
-
-def _settings(path: Path, scale: float, dt: float) -> dict[str, Any]:
-    """A fully explicit member: the record scaled by ``scale``, Δt by ``dt``; the girder
-    stress sampled at the same physical times as the scene's (output.stress_every macro
-    steps of ``ratio`` steps: twice as many of the halved step)."""
-    sc = load_scenario(path)
-    gm = sc.loading.ground_motion
-    assert sc.coupling is not None and gm is not None and not isinstance(gm, list)
-    dtf = sc.time.dt_factor
-    assert dtf is not None
-    every = sc.output.stress_every
-    out: dict[str, Any] = {"coupling.method": "monolithic", "output.xdmf": False}
-    if scale != 1.0:
-        out["loading.ground_motion.scale"] = gm.scale * scale
-    if dt != 1.0:
-        out["time.dt_factor"] = dtf * dt
-        out["output.stress_every"] = round(every / dt)
-    return out
 
 
 def _quantities(o: Outcome) -> dict[str, float]:
@@ -175,7 +155,7 @@ def _scene(scene: Scene, out: Path) -> tuple[str, list[dict[str, Any]]]:
     path = demo(scene.name)
     runs = out / "runs" / "ensemble" / scene.name
     members = [
-        run_case(label, path, _settings(path, s, d), runs / f"member{i}")
+        run_case(label, path, explicit_settings(path, s, d), runs / f"member{i}")
         for i, (label, s, d) in enumerate(MEMBERS)
     ]
     bad = [m.label for m in members if not m.stable]

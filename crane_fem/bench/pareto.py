@@ -13,7 +13,7 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from crane_fem.bench import Section
-from crane_fem.bench.common import Outcome, demo, run_case, write_csv
+from crane_fem.bench.common import Outcome, demo, explicit_settings, run_case, write_csv
 from crane_fem.compare import lift_off_episodes, pair_l2
 from crane_fem.errors import CraneFemError, ScenarioError
 from crane_fem.exact import WallImpact
@@ -32,7 +32,6 @@ __all__ = [
     "cheapest_within",
     "contact_end_exact",
     "crane_errors",
-    "explicit_settings",
     "pareto_front",
     "run",
     "wheel_peaks",
@@ -49,9 +48,10 @@ CRITERION = 0.02
 #: The bar's mesh (h = L/200) delays the release by about 2h/c: its contact-end error has a
 #: floor near 3.6 %, so the bar's front is also named at this looser bound.
 BAR_LOOSE = 0.05
-#: The crane's nominal fully explicit run; :func:`explicit_settings` gives its Δt × ½
-#: reference. The ensemble suite makes the same runs with the same settings (bench.common
-#: memoises them in-process: the second suite reuses them).
+#: The crane's nominal fully explicit run (``explicit_settings(scene)``, the keys it sets);
+#: :func:`~crane_fem.bench.common.explicit_settings` gives its Δt × ½ reference. The ensemble
+#: suite makes the same runs with the same settings (bench.common memoises them in-process:
+#: the second suite reuses them).
 NOMINAL = {"coupling.method": "monolithic", "output.xdmf": False}
 #: The coupling methods of the chart (ph refuses an active explicit contact; ec refuses a
 #: contact that changes state near the interface: both cases have one).
@@ -321,21 +321,6 @@ def bar_specs() -> tuple[list[Spec], WallImpact, float]:
             specs.append(Spec("bar", method, lab, demo("split_bar"), s, {"m": m}))
     force = split.material.rho * c * abs(split.initial.velocity) * mdl.area
     return specs, exact, force
-
-
-def explicit_settings(scene: Path, dt_scale: float) -> dict[str, Any]:
-    """The fully explicit run of a crane scene with Δt × ``dt_scale`` (1: the nominal run):
-    the settings of the ensemble suite's member, so that the two suites share the run — the
-    girders' stress sampled at the same physical times (``output.stress_every`` scaled)."""
-    if dt_scale == 1.0:
-        return dict(NOMINAL)
-    sc = load_scenario(scene)
-    assert sc.time.dt_factor is not None
-    return {
-        **NOMINAL,
-        "time.dt_factor": sc.time.dt_factor * dt_scale,
-        "output.stress_every": round(sc.output.stress_every / dt_scale),
-    }
 
 
 def _coupled_settings(scene: Path, method: str, m: int) -> dict[str, Any]:
