@@ -322,8 +322,8 @@ def run_coupled(
                     writer.write(row)
                     for c in columns:
                         history[c].append(row[c])
-                frame = rec.step % xdmf_every == 0 or rec.step == md.n_macro
                 last = rec.step == md.n_macro
+                frame = rec.step % xdmf_every == 0 or last
                 if stress is not None and (rec.step % sc.output.stress_every == 0 or last):
                     stress.update(rec)
                 if writers and frame:
