@@ -14,7 +14,7 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from crane_fem.coupling import ENERGY_KEYS, MacroRecord
-from crane_fem.errors import UnstableRunError
+from crane_fem.errors import ScenarioError, UnstableRunError
 from crane_fem.io import HistoryWriter, XDMFSeries
 from crane_fem.peaks import ContactPeaks
 from crane_fem.pipeline import Simulation, create_simulation
@@ -254,7 +254,11 @@ def _summary_head(sc: Scenario, sim: Simulation, comm: MPI.Comm) -> dict[str, An
 
 
 def run_coupled(
-    sc: Scenario, outdir: str | Path, comm: MPI.Comm | None = None, progress: bool | None = None
+    sc: Scenario,
+    outdir: str | Path,
+    comm: MPI.Comm | None = None,
+    progress: bool | None = None,
+    restart: str | Path | None = None,
 ) -> RunResult:
     """Run a scenario with subdomains (a coupling method or the monolithic reference); outputs
     as :func:`crane_fem.driver.run_scenario` plus the ``interface_*`` columns and one XDMF file
@@ -263,6 +267,8 @@ def run_coupled(
     Collective over ``comm``.
     """
     comm = MPI.COMM_WORLD if comm is None else comm
+    if restart is not None:
+        raise ScenarioError("--restart: not implemented yet")
     out = Path(outdir)
     t_wall = time.perf_counter()
     sim = create_simulation(sc, comm)

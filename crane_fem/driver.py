@@ -18,7 +18,7 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from crane_fem.energy import BALANCE_TERMS
-from crane_fem.errors import UnstableRunError
+from crane_fem.errors import ScenarioError, UnstableRunError
 from crane_fem.integrators import CDLagrange, CDPenalty, MoreauJean, StepRecord, TimeIntegrator
 from crane_fem.io import HistoryWriter, XDMFSeries
 from crane_fem.peaks import ContactPeaks
@@ -104,8 +104,12 @@ def run_scenario(
     outdir: str | Path,
     comm: MPI.Comm | None = None,
     progress: bool | None = None,
+    restart: str | Path | None = None,
 ) -> RunResult:
     """Run ``sc`` and write ``history.csv``, ``summary.json`` and ``solution.xdmf`` in ``outdir``.
+
+    ``restart``: an output directory holding checkpoints of ``sc`` (``output.checkpoint_every``);
+    the run continues from the latest one into ``outdir``.
 
     Collective over ``comm`` (default: COMM_WORLD, chosen here at the entry point).
 
@@ -117,7 +121,9 @@ def run_scenario(
     if sc.coupled_path:
         from crane_fem.coupled_run import run_coupled
 
-        return run_coupled(sc, outdir, comm, progress)
+        return run_coupled(sc, outdir, comm, progress, restart)
+    if restart is not None:
+        raise ScenarioError("--restart: checkpoints are written by scenes with subdomains only")
     out = Path(outdir)
     t_wall = time.perf_counter()
     sim = Simulation(sc, comm)

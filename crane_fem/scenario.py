@@ -415,6 +415,30 @@ class Output(_Section):
     #: Crane: the bridge's peak von Mises stress is evaluated every this many macro steps.
     stress_every: PositiveInt = 1
     progress: bool | Literal["auto"] = "auto"
+    #: Write the full state every this many macro steps (``crane-fem run --restart OUTDIR``
+    #: continues from the latest one); scenes with subdomains only.
+    checkpoint_every: PositiveInt | None = None
+
+
+class Spectra(_Section):
+    """Pseudo-acceleration response spectra of the input motion and of the absolute motion at
+    named ``points`` (coordinates in metres, the nearest mesh vertex is used; a crane gets its
+    trolley centre, wheel 1 and an end-carriage support when none is given): ``damping`` is
+    the oscillators' damping ratio, ``periods`` the range [T_min, T_max] (s) sampled at
+    ``count`` log-spaced periods."""
+
+    damping: Annotated[float, Field(gt=0, lt=1)] = 0.05
+    periods: Annotated[list[PositiveFloat], Field(min_length=2, max_length=2)] = [0.01, 2.0]
+    count: Annotated[int, Field(ge=2)] = 100
+    points: dict[str, Vector3] = {}
+
+    @model_validator(mode="after")
+    def _range(self) -> Spectra:
+        if not self.periods[0] < self.periods[1]:
+            raise ValueError(
+                f"periods must be [T_min, T_max] with T_min < T_max (got {self.periods})"
+            )
+        return self
 
 
 class Monitor(_Section):
@@ -436,6 +460,7 @@ class Scenario(_Section):
     integrator: Integrator = Integrator()
     loading: Loading = Loading()
     output: Output = Output()
+    spectra: Spectra = Spectra()
     monitor: Monitor = Monitor()
     subdomain: list[SubdomainSpec] = []
     coupling: Coupling | None = None
@@ -545,6 +570,11 @@ class Scenario(_Section):
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
+        if self.output.checkpoint_every is not None and not self.coupled_path:
+            raise ValueError(
+                "output.checkpoint_every: checkpoints are written by scenes with [[subdomain]] "
+                "or [coupling] only"
+            )
         if not isinstance(self.model, BarModel):
             return self
         types = [c.type for c in self.contact]
