@@ -1,9 +1,15 @@
 """Peaks of each contact group from every micro step: the largest contact force and its time,
-the largest gap (a wheel's uplift) and the lift-offs, whatever the output rate.
+the largest gap (a wheel's uplift), the lift-offs and the impacts, whatever the output rate.
 
 A lift-off of a group (a wheel) is a separation, all its points open by more than
 ``LIFT_GAP``, whose flight rises higher than ``LIFT_HEIGHT``; the short, low separations that
 follow an impact (chatter of the node-to-node contact, tens of micrometres) are not lift-offs.
+
+An impact of a group begins at its first micro step with a force above its static force (the
+preload's wheel force, or zero) after a landing (the end of a lift-off) or, for a group that
+starts open, after its first closing; it ends at the first micro step where the group opens
+again or its force falls back to the static force. Its impulse is the group's impulse summed
+over those steps (N·s), its peak the largest force.
 """
 
 from __future__ import annotations
@@ -30,9 +36,15 @@ class ContactPeaks:
         dt: the micro step (s): a micro step's force is its impulse / Δt.
     """
 
-    def __init__(self, names: list[str], dt: float) -> None:
+    def __init__(self, names: list[str], dt: float, static: FloatArray | None = None) -> None:
         n = len(names)
         self.names, self.dt = list(names), float(dt)
+        self.static = np.zeros(n) if static is None else np.asarray(static, dtype=np.float64)
+        self.impacts: list[list[dict[str, float]]] = [[] for _ in range(n)]
+        # An impact awaited (after a landing) or under way: its onset, impulse and peak.
+        self._awaiting = np.zeros(n, dtype=bool)
+        self._striking = np.zeros(n, dtype=bool)
+        self._strike = np.zeros((n, 3))
         self.peak_force = np.zeros(n)
         self.peak_time = np.zeros(n)
         self.max_gap = np.full(n, -np.inf)
@@ -44,7 +56,9 @@ class ContactPeaks:
         self._t_last = 0.0
 
     def start(self, t: float, force: FloatArray, gap: FloatArray) -> None:
-        """The state at the start time: group forces (N) and smallest gaps (m)."""
+        """The state at the start time: group forces (N) and smallest gaps (m); a group that
+        starts open awaits its first impact."""
+        self._awaiting[:] = gap > LIFT_GAP
         self.update(np.array([t]), force[None, :] * self.dt, gap[None, :])
 
     def update(self, t: FloatArray, impulse: FloatArray, gap: FloatArray) -> None:
@@ -60,34 +74,92 @@ class ContactPeaks:
         self.peak_time[better] = t[j][better]
         np.maximum(self.max_gap, gap.max(axis=0), out=self.max_gap)
         off = gap > LIFT_GAP
-        for k in np.flatnonzero(off.any(axis=0) | self._flying):
-            self._separations(int(k), t, off[:, k], gap[:, k])
+        landings: dict[int, list[int]] = {}
+        for g in np.flatnonzero(off.any(axis=0) | self._flying).tolist():
+            landings[g] = self._separations(g, t, off[:, g], gap[:, g])
+        following = set(np.flatnonzero(self._awaiting | self._striking).tolist())
+        for k in sorted(following | {g for g, v in landings.items() if v}):
+            # The trace cut at the landings: each landing awaits a new impact.
+            cuts = [0, *landings.get(k, []), t.size]
+            for i in range(len(cuts) - 1):
+                if i > 0:
+                    self._awaiting[k], self._striking[k] = True, False
+                self._impact(k, t, off[:, k], impulse[:, k], cuts[i], cuts[i + 1])
         self._t_last = float(t[-1])
 
-    def _separations(
-        self, k: int, t: FloatArray, off: npt.NDArray[np.bool_], gap: FloatArray
+    def _impact(
+        self,
+        k: int,
+        t: FloatArray,
+        off: npt.NDArray[np.bool_],
+        impulse: FloatArray,
+        a: int,
+        b: int,
     ) -> None:
-        """Close and open group k's separations over one trace (a loop over its few edges)."""
+        """Follow group k's awaited or current impact over trace steps [a, b)."""
+        static = self.static[k] * self.dt
+        if self._awaiting[k]:
+            hit = np.flatnonzero(impulse[a:b] > static)
+            if hit.size == 0:
+                return
+            a += int(hit[0])
+            self._awaiting[k], self._striking[k] = False, True
+            self._strike[k] = (t[a], 0.0, 0.0)
+        if not self._striking[k]:
+            return
+        stop = np.flatnonzero(off[a:b] | (impulse[a:b] <= static))
+        e = a + int(stop[0]) if stop.size else b
+        self._strike[k, 1] += float(impulse[a:e].sum())
+        self._strike[k, 2] = max(self._strike[k, 2], float(impulse[a:e].max(initial=0.0)))
+        if stop.size:
+            onset, j, peak = self._strike[k]
+            self.impacts[k].append(
+                {
+                    "t_s": float(onset),
+                    "impulse_Ns": float(j),
+                    "duration_s": float(t[e] - onset),
+                    "peak_force_N": float(peak / self.dt),
+                }
+            )
+            self._striking[k] = False
+
+    def _separations(
+        self,
+        k: int,
+        t: FloatArray,
+        off: npt.NDArray[np.bool_],
+        gap: FloatArray,
+    ) -> list[int]:
+        """Close and open group k's separations over one trace (a loop over its few edges);
+        the trace steps where a lift-off landed."""
         edges = np.flatnonzero(np.diff(np.r_[np.int8(self._flying[k]), off.astype(np.int8)]))
         a = 0
+        landed: list[int] = []
         for e in edges.tolist():
             if off[e]:  # a separation starts at step e
                 self._flying[k], self._onset[k], self._height[k] = True, t[e], 0.0
                 a = e
             else:  # it ended at step e − 1
                 self._height[k] = max(self._height[k], float(gap[a:e].max(initial=0.0)))
-                self._land(k, float(t[e - 1]) if e > 0 else self._t_last)
+                if self._land(k, float(t[e - 1]) if e > 0 else self._t_last):
+                    landed.append(e)
         if self._flying[k]:
             self._height[k] = max(self._height[k], float(gap[a:].max(initial=0.0)))
+        return landed
 
-    def _land(self, k: int, t_end: float) -> None:
-        if self._height[k] > LIFT_HEIGHT:
+    def _land(self, k: int, t_end: float) -> bool:
+        """End group k's separation at ``t_end``; whether it was a lift-off."""
+        lift = bool(self._height[k] > LIFT_HEIGHT)
+        if lift:
             self.lift_offs[k].append([float(self._onset[k]), t_end])
         self._flying[k] = False
+        return lift
 
     def table(self) -> dict[str, dict[str, Any]]:
         """Per group: ``lift_offs`` (count, intervals [onset, end]; a flight still under way
-        ends at the last time), ``max_uplift_m``, ``peak_force_N``, ``peak_force_time_s``."""
+        ends at the last time), ``max_uplift_m``, ``peak_force_N``, ``peak_force_time_s``,
+        ``impacts`` (each: onset ``t_s``, ``impulse_Ns``, ``duration_s``, ``peak_force_N``;
+        one still under way ends at the last time)."""
         out: dict[str, dict[str, Any]] = {}
         for k, name in enumerate(self.names):
             intervals = list(self.lift_offs[k])
@@ -98,5 +170,19 @@ class ContactPeaks:
                 "max_uplift_m": float(max(self.max_gap[k], 0.0)),
                 "peak_force_N": float(self.peak_force[k]),
                 "peak_force_time_s": float(self.peak_time[k]),
+                "impacts": list(self.impacts[k]) + self._open_impact(k),
             }
         return out
+
+    def _open_impact(self, k: int) -> list[dict[str, float]]:
+        if not self._striking[k]:
+            return []
+        onset, j, peak = self._strike[k]
+        return [
+            {
+                "t_s": float(onset),
+                "impulse_Ns": float(j),
+                "duration_s": self._t_last - float(onset),
+                "peak_force_N": float(peak / self.dt),
+            }
+        ]

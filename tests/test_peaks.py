@@ -42,6 +42,32 @@ def test_contact_peaks_by_hand() -> None:
     assert g["max_uplift_m"] == 3e-3
     assert g["peak_force_N"] == 7.0
     assert g["peak_force_time_s"] == t[13]
+    # The landing at step 12 strikes until the next opening (step 17): forces 1, 7, 1, 1, 1.
+    assert g["impacts"] == [
+        {"t_s": t[12], "impulse_Ns": 5.5, "duration_s": t[17] - t[12], "peak_force_N": 7.0}
+    ]
+    # Above a static force of 2 N, the impact is step 13 alone (force 7 N, then 1 N).
+    for sizes in ([20], [1] * 20, [13, 7]):
+        peaks = ContactPeaks(["g"], dt, static=np.array([2.0]))
+        _feed(peaks, t, impulse, gap, sizes)
+        assert peaks.table()["g"]["impacts"] == [
+            {"t_s": t[13], "impulse_Ns": 3.5, "duration_s": dt, "peak_force_N": 7.0}
+        ]
+
+
+def test_impacts_of_a_group_that_starts_open() -> None:
+    """A group open at the start strikes at its first closing; one striking at the end
+    reports the impact under way, ending at the last time."""
+    dt = 1.0
+    t = np.arange(6, dtype=np.float64)
+    gap = np.array([[1e-3], [5e-4], [0.0], [0.0], [0.0], [0.0]])
+    impulse = np.array([[0.0], [0.0], [0.0], [2.0], [3.0], [1.0]])
+    peaks = ContactPeaks(["g"], dt)
+    peaks.start(t[0], impulse[0] / dt, gap[0])
+    peaks.update(t[1:], impulse[1:], gap[1:])
+    assert peaks.table()["g"]["impacts"] == [
+        {"t_s": 3.0, "impulse_Ns": 6.0, "duration_s": 2.0, "peak_force_N": 3.0}
+    ]
 
 
 QUICK = demo("crane_quick")
