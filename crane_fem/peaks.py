@@ -14,6 +14,7 @@ over those steps (N·s), its peak the largest force.
 
 from __future__ import annotations
 
+import json
 from typing import Any
 
 import numpy as np
@@ -25,6 +26,18 @@ FloatArray = npt.NDArray[np.float64]
 
 LIFT_GAP = 1e-6  # m: a wheel is off its rail when all its pairs are open by more than this
 LIFT_HEIGHT = 1e-4  # m: a lift-off is a flight higher than this; lower ones are chatter
+#: The array attributes of :class:`ContactPeaks` that change as it runs.
+_ARRAYS = (
+    "peak_force",
+    "peak_time",
+    "max_gap",
+    "_awaiting",
+    "_striking",
+    "_strike",
+    "_flying",
+    "_onset",
+    "_height",
+)
 
 
 class ContactPeaks:
@@ -154,6 +167,25 @@ class ContactPeaks:
             self.lift_offs[k].append([float(self._onset[k]), t_end])
         self._flying[k] = False
         return lift
+
+    def state_dict(self) -> dict[str, Any]:
+        """The running peaks, separations and impacts (a checkpoint); the lift-offs and
+        impacts found as JSON text (floats round-trip exactly)."""
+        out: dict[str, Any] = {k: getattr(self, k).copy() for k in _ARRAYS}
+        out["t_last"] = self._t_last
+        out["lift_offs"] = json.dumps(self.lift_offs)
+        out["impacts"] = json.dumps(self.impacts)
+        return out
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        for k in _ARRAYS:
+            src = np.asarray(state[k])
+            if src.shape != getattr(self, k).shape:
+                raise ValueError(f"contact peaks state {k!r}: shape {src.shape} does not match")
+            setattr(self, k, src.astype(getattr(self, k).dtype))
+        self._t_last = float(state["t_last"])
+        self.lift_offs = json.loads(state["lift_offs"])
+        self.impacts = json.loads(state["impacts"])
 
     def table(self) -> dict[str, dict[str, Any]]:
         """Per group: ``lift_offs`` (count, intervals [onset, end]; a flight still under way

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from petsc4py import PETSc
@@ -129,6 +130,19 @@ class EnergyGrowthMonitor:
                 f"supplied ({self._supplied:.3e} J)"
             )
         return None
+
+    def state_dict(self) -> dict[str, float | bool]:
+        """The running books (a checkpoint)."""
+        return {
+            "supplied": self._supplied,
+            "last_work": self._last_work,
+            "initialized": self._initialized,
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self._supplied = float(state["supplied"])
+        self._last_work = float(state["last_work"])
+        self._initialized = bool(state["initialized"])
 
     def check(self, rec: StepRecord) -> None:
         """Raise :class:`UnstableRunError` on divergence (same verdict on every rank)."""

@@ -202,6 +202,15 @@ class EnergyConserving(MethodBase):
         s.trapezoid_finish(st, G, dT * G, out)  # the work of G on both sides: Gᵀ r
         return ECStep(out.lam, out.gaps, s.micro_trace(t0, out), G)
 
+    def method_state(self) -> dict[str, Any]:
+        """The passes per macro step and the worst residual (the cached factors are rebuilt
+        on demand, the same)."""
+        return {"passes": np.asarray(self.passes, dtype=np.int64), "residual": self.residual}
+
+    def load_method_state(self, state: dict[str, Any]) -> None:
+        self.passes = [int(k) for k in state["passes"]]
+        self.residual = float(state["residual"])
+
     def summary(self) -> dict[str, Any]:
         if not self.passes:
             return {}

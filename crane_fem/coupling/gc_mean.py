@@ -70,3 +70,9 @@ class GCMean(MethodBase):
 
     def summary(self) -> dict[str, Any]:
         return {"interface_identity_error": self.identity_error}
+
+    def method_state(self) -> dict[str, Any]:
+        return {"identity_error": self.identity_error}
+
+    def load_method_state(self, state: dict[str, Any]) -> None:
+        self.identity_error = float(state["identity_error"])

@@ -115,6 +115,15 @@ class Hybrid(MethodBase):
     def summary(self) -> dict[str, Any]:
         return {"hybrid_steps": dict(self.steps_taken), **self.ec.summary()}
 
+    def method_state(self) -> dict[str, Any]:
+        """The steps of each kind and the "ec" passes (the refined side's state is copied in
+        at each refined step: nothing of it carries over)."""
+        return {"steps_taken": dict(self.steps_taken), "ec": self.ec.method_state()}
+
+    def load_method_state(self, state: dict[str, Any]) -> None:
+        self.steps_taken = {k: int(state["steps_taken"][k]) for k in self.steps_taken}
+        self.ec.load_method_state(state["ec"])
+
     def destroy(self) -> None:
         if self._fine is not None:
             self._fine[0].destroy()

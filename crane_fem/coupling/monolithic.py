@@ -6,6 +6,7 @@ that the driver records at the coupled run's output times.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -29,6 +30,17 @@ class _Alone(MethodBase):
     @property
     def n_macro(self) -> int:
         return math.ceil(self.n_steps / self.stride)
+
+    def resumable(self) -> bool:
+        """Not after a last macro step shorter than ``stride``: a longer run would have
+        taken it whole."""
+        return self.done == self.system.n * self.stride
+
+    def method_state(self) -> dict[str, Any]:
+        return {"done": self.done}
+
+    def load_method_state(self, state: dict[str, Any]) -> None:
+        self.done = int(state["done"])
 
     def _record(self, rec: MacroRecord) -> MacroRecord:
         rec.step = self.system.n

@@ -161,6 +161,23 @@ class PrakashHjelmstad(MethodBase):
         s.acc["interface_energy_ph"] -= (s1 - s0 - w_ext) + link_i
         s.acc["energy_ph_explicit"] = s1
 
+    def method_state(self) -> dict[str, Any]:
+        """(S_E, V_E, F_E) at the last macro time when the measure is evaluated (Z, the
+        explicit side's response, is recomputed on demand, the same)."""
+        if self._prev is None:
+            return {}
+        s_e, v, f = self._prev
+        return {"prev_storage": s_e, "prev_v": v.copy(), "prev_f": f.copy()}
+
+    def load_method_state(self, state: dict[str, Any]) -> None:
+        if self.storage is None:
+            return
+        self._prev = (
+            float(state["prev_storage"]),
+            np.array(state["prev_v"], dtype=np.float64),
+            np.array(state["prev_f"], dtype=np.float64),
+        )
+
     def history_keys(self) -> list[str]:
         return list(PH_KEYS) if self.storage is not None else []
 

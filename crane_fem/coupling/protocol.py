@@ -31,6 +31,12 @@ class MacroStep(Protocol):
 
     def summary(self) -> dict[str, Any]: ...
 
+    def resumable(self) -> bool: ...
+
+    def state_dict(self) -> dict[str, Any]: ...
+
+    def load_state_dict(self, state: dict[str, Any]) -> None: ...
+
     def destroy(self) -> None: ...
 
 
@@ -54,6 +60,30 @@ class MethodBase:
 
     def summary(self) -> dict[str, Any]:
         return {}
+
+    # Checkpoints: the state a continued run needs, between macro steps, as nested dicts of
+    # arrays and scalars (this rank's arrays; crane_fem.checkpoint writes them). What is built
+    # once at set-up (operators, factorisations, the interface operator, "ec"'s and "ph"'s
+    # explicit responses, recomputed on demand the same way) is not in it.
+    def resumable(self) -> bool:
+        """Whether a run continued from now steps as the uninterrupted one would."""
+        return True
+
+    def state_dict(self) -> dict[str, Any]:
+        """The system's state and the method's own (not collective)."""
+        return {"system": self.system.state_dict(), "method": self.method_state()}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Set the state from :meth:`state_dict` of the same method and partition."""
+        self.system.load_state_dict(state["system"])
+        self.load_method_state(state.get("method", {}))
+
+    def method_state(self) -> dict[str, Any]:
+        """The method's own accumulators (none here)."""
+        return {}
+
+    def load_method_state(self, state: dict[str, Any]) -> None:
+        return None
 
     def destroy(self) -> None:
         return None

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -86,6 +86,8 @@ class ImplicitSide(Protocol):
     def refined(self, dT: float) -> ImplicitSide: ...
     def link_response(self, force: FloatArray) -> FloatArray: ...
     def correct(self, force: FloatArray) -> None: ...
+    def state_dict(self) -> dict[str, Any]: ...
+    def load_state_dict(self, state: dict[str, Any]) -> None: ...
     def destroy(self) -> None: ...
 
 
@@ -157,6 +159,27 @@ class MacroRecord:
     def implicit_v(self) -> FloatArray | None:
         f = self._implicit()
         return None if f is None else f[1]
+
+    def state_dict(self) -> dict[str, Any]:
+        """What the record holds beyond the two sides' state (a checkpoint taken before the
+        record is used; :meth:`CoupledSystem.resume_record` makes it again)."""
+        return {
+            "step": self.step,
+            "t": self.t,
+            "energy": dict(self.energy),
+            "contact_impulse": self.contact_impulse,
+            "gaps": self.gaps,
+            "interface_impulse": self.interface_impulse,
+            "micro": {
+                "t": self.micro.t,
+                "active": self.micro.active,
+                "impulse": self.micro.impulse,
+                "gap": self.micro.gap,
+            },
+            "impulse_explicit": self.impulse_explicit,
+            "impulse_defect": self.impulse_defect,
+            "interface_velocity_jump": self.interface_velocity_jump,
+        }
 
 
 @dataclass
@@ -314,13 +337,6 @@ class CoupledSystem:
         E, I = self.E, self.I  # noqa: E741
         if interface_impulse is None:
             interface_impulse = lam[:n_g] / self.dt if lam.size else np.zeros(0)
-        fields = None
-        if I is not None:
-            u, v = I.u, I.v  # replaced, never changed in place, by the steps that follow
-
-            def fields() -> tuple[FloatArray, FloatArray]:
-                return I.field(u), I.field(v)
-
         jump = 0.0
         if self.coupled and E is not None and I is not None:
             w = E.stack.apply(E.v_int)[:n_g] + I.interface_values(I.v)
@@ -331,7 +347,7 @@ class CoupledSystem:
             e,
             E.u if E is not None else None,
             E.v_int if E is not None else None,
-            fields,
+            self._implicit_fields(),
             lam[n_g:] if lam.size else np.zeros(0),
             gaps[n_g:] if gaps.size else np.zeros(0),
             interface_impulse,
@@ -340,6 +356,18 @@ class CoupledSystem:
             float(np.linalg.norm(self.impulse_E - self.impulse_I)),
             jump,
         )
+
+    def _implicit_fields(self) -> Callable[[], tuple[FloatArray, FloatArray]] | None:
+        """The implicit side's current (U, V) as fields, on demand."""
+        I = self.I  # noqa: E741
+        if I is None:
+            return None
+        u, v = I.u, I.v  # replaced, never changed in place, by the steps that follow
+
+        def fields() -> tuple[FloatArray, FloatArray]:
+            return I.field(u), I.field(v)
+
+        return fields
 
     def micro_trace(self, t0: float, out: kx.StepsOut) -> MicroTrace:
         """The micro steps of a kernel call from t0: t_j = t0 + jΔt, and what ``out`` holds
@@ -473,6 +501,67 @@ class CoupledSystem:
         self.lam_macro_prev, self.impulse_E, self.impulse_I = (x.copy() for x in snap.arrays)
         self.acc = dict(snap.acc)
         self.e_kin, self.e_int, self.i_kin, self.i_int = snap.energies
+
+    def state_dict(self) -> dict[str, Any]:
+        """Everything that changes while stepping, between macro steps (a checkpoint; local
+        arrays of this rank, not collective): the books, the step count and both sides."""
+        out: dict[str, Any] = {
+            "n": self.n,
+            "acc": dict(self.acc),
+            "lam_macro_prev": self.lam_macro_prev.copy(),
+            "impulse_E": self.impulse_E.copy(),
+            "impulse_I": self.impulse_I.copy(),
+            "energies": np.array([self.e_kin, self.e_int, self.i_kin, self.i_int]),
+        }
+        if self.E is not None:
+            out["explicit"] = self.E.state_dict()
+        if self.I is not None:
+            out["implicit"] = self.I.state_dict()
+        return out
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Set the state from :meth:`state_dict` of the same system on the same partition.
+        The cached C V is dropped (recomputed from V as the same sums)."""
+        self.n = int(state["n"])
+        missing = set(self.acc) - set(state["acc"])
+        if missing:
+            raise ValueError(f"coupled system state: no energy terms {sorted(missing)}")
+        self.acc = {k: float(state["acc"][k]) for k in self.acc}
+        self.lam_macro_prev = np.array(state["lam_macro_prev"], dtype=np.float64)
+        self.impulse_E = np.array(state["impulse_E"], dtype=np.float64)
+        self.impulse_I = np.array(state["impulse_I"], dtype=np.float64)
+        self.e_kin, self.e_int, self.i_kin, self.i_int = (float(x) for x in state["energies"])
+        if self.E is not None:
+            self.E.load_state_dict(state["explicit"])
+        if self.I is not None:
+            self.I.load_state_dict(state["implicit"])
+        self._cv_cache = None
+
+    def resume_record(self, state: dict[str, Any]) -> MacroRecord:
+        """The record of :meth:`MacroRecord.state_dict` on the restored sides (its fields are
+        the sides' current ones, as when it was made; not collective)."""
+        E = self.E
+        micro = state["micro"]
+        return MacroRecord(
+            int(state["step"]),
+            float(state["t"]),
+            {k: float(v) for k, v in state["energy"].items()},
+            E.u if E is not None else None,
+            E.v_int if E is not None else None,
+            self._implicit_fields(),
+            np.asarray(state["contact_impulse"], dtype=np.float64),
+            np.asarray(state["gaps"], dtype=np.float64),
+            np.asarray(state["interface_impulse"], dtype=np.float64),
+            MicroTrace(
+                np.asarray(micro["t"], dtype=np.float64),
+                np.asarray(micro["active"], dtype=bool),
+                np.asarray(micro["impulse"], dtype=np.float64),
+                np.asarray(micro["gap"], dtype=np.float64),
+            ),
+            float(state["impulse_explicit"]),
+            float(state["impulse_defect"]),
+            float(state["interface_velocity_jump"]),
+        )
 
     def use_implicit(self, implicit: ImplicitSide, ratio: int) -> None:
         """Run the next macro steps with ``implicit`` (its ΔT = ratio × Δt) as the implicit

@@ -32,6 +32,12 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
 
+#: The kernel's state arrays a checkpoint keeps (the halo buffers and requests are rebuilt).
+_STATE_FIELDS = tuple(
+    k for k in kx.ZoneState._fields if k not in ("send_buf", "recv_buf", "requests")
+)
+
+
 @dataclass(frozen=True)
 class ZoneSnapshot:
     """Copies of everything a call of the kernel changes (to redo a macro step)."""
@@ -376,6 +382,22 @@ class ExplicitZone:
         for dst, src in zip(
             (s.u, s.vh, s.ku, s.kv, s.v_int, s.lam_prev, s.w_prev), snap.arrays, strict=True
         ):
+            dst[:] = src
+
+    def state_dict(self) -> dict[str, Any]:
+        """Copies of the state arrays (a checkpoint: U and V_{j+1/2} with their ghost entries,
+        K U, V_j, the last interface impulses and the kernel's arrays that carry over between
+        micro steps; the halo buffers and requests left out). Not collective."""
+        s = self.state
+        return {k: getattr(s, k).copy() for k in _STATE_FIELDS}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Set the state from :meth:`state_dict` of a zone on the same partition (not
+        collective)."""
+        for k in _STATE_FIELDS:
+            dst, src = getattr(self.state, k), np.asarray(state[k])
+            if dst.shape != src.shape:
+                raise ValueError(f"explicit zone state {k!r}: shape {src.shape}, not {dst.shape}")
             dst[:] = src
 
     def local_energies(self) -> list[float]:

@@ -122,6 +122,18 @@ class NewmarkSteps:
     def accept(self, u: FloatArray, v: FloatArray, a: FloatArray) -> None:
         self.u, self.v, self.a = u, v, a
 
+    def state_dict(self) -> dict[str, Any]:
+        """Copies of (U, V, A), this side's vectors (a checkpoint; not collective)."""
+        return {"u": self.u.copy(), "v": self.v.copy(), "a": self.a.copy()}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Set (U, V, A) from :meth:`state_dict` of a side on the same partition."""
+        for k in ("u", "v", "a"):
+            src = np.array(state[k], dtype=np.float64)
+            if src.shape != getattr(self, k).shape:
+                raise ValueError(f"implicit side state {k!r}: shape {src.shape} does not match")
+            setattr(self, k, src)
+
     def link_response(self, force: FloatArray) -> FloatArray:
         """M̃⁻¹ Lᵀ Λ for link forces Λ (n_Γ, global, the same on every rank) (collective)."""
         return self.solve(self.interface_force(force))

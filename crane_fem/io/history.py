@@ -17,9 +17,18 @@ class HistoryWriter:
     """CSV writer on rank 0 of ``comm``; other ranks hold no file. Values must be global.
 
     Each row is flushed, so an interrupted run leaves a valid file of complete rows.
+    ``rows``: columns of rows to write first, as :meth:`write` would have (a restarted run's
+    rows up to its checkpoint: the file is written anew, so rows written after the
+    checkpoint by the interrupted run are dropped).
     """
 
-    def __init__(self, path: Path, columns: list[str], comm: MPI.Comm) -> None:
+    def __init__(
+        self,
+        path: Path,
+        columns: list[str],
+        comm: MPI.Comm,
+        rows: dict[str, list[float]] | None = None,
+    ) -> None:
         self.columns = columns
         self._file = None
         self._writer = None
@@ -28,6 +37,10 @@ class HistoryWriter:
             self._file = path.open("w", newline="", encoding="utf-8")
             self._writer = csv.writer(self._file)
             self._writer.writerow(columns)
+            if rows:
+                n = len(rows[columns[0]])
+                for i in range(n):
+                    self._writer.writerow([repr(float(rows[c][i])) for c in columns])
             self._file.flush()
 
     def write(self, row: dict[str, float]) -> None:

@@ -13,7 +13,9 @@ import numpy.typing as npt
 
 from crane_fem.stress import VonMises
 
-__all__ = ["XDMFSeries"]
+__all__ = ["XDMFSeries", "read_xdmf", "truncate_xdmf", "xdmf_frames"]
+
+XINCLUDE = "https://www.w3.org/2001/XInclude"
 
 
 class XDMFSeries:
@@ -24,6 +26,8 @@ class XDMFSeries:
     the same value at every time (e.g. the subdomain tag, so ParaView can colour by it at any
     time), and ``von_mises = (E, ν)`` adds the von Mises stress of the ``displacement`` field
     (linear elasticity, evaluated per cell; P1 strains are constant in a tetrahedron).
+    ``append``: continue the series already in ``path`` (a restarted run, after
+    :func:`truncate_xdmf`) rather than start a new file.
     """
 
     def __init__(
@@ -33,11 +37,13 @@ class XDMFSeries:
         names: list[str],
         constants: dict[str, float] | None = None,
         von_mises: tuple[float, float] | None = None,
+        append: bool = False,
     ) -> None:
         path.parent.mkdir(parents=True, exist_ok=True) if V.mesh.comm.rank == 0 else None
         V.mesh.comm.barrier()
-        self._file = dolfinx.io.XDMFFile(V.mesh.comm, str(path), "w")
-        self._file.write_mesh(V.mesh)
+        self._file = dolfinx.io.XDMFFile(V.mesh.comm, str(path), "a" if append else "w")
+        if not append:
+            self._file.write_mesh(V.mesh)
         self._functions = {}
         for name in names:
             f = dolfinx.fem.Function(V, name=name)
@@ -79,6 +85,54 @@ class XDMFSeries:
         tb: TracebackType | None,
     ) -> None:
         self.close()
+
+
+def xdmf_frames(path: Path) -> int:
+    """Times written to the series in ``path`` (the frames of its first field; not
+    collective)."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(path).getroot()
+    coll = root.find("Domain/Grid[@GridType='Collection']")
+    return 0 if coll is None else len(coll.findall("Grid"))
+
+
+def truncate_xdmf(path: Path, frames: int) -> None:
+    """Keep the first ``frames`` times of the series in ``path`` (every field's), drop the
+    later ones from the XDMF file and their data sets from its HDF5 file (not collective:
+    call it on one rank, with the file closed).
+
+    Raises:
+        ValueError: the series holds fewer frames, or the file is not a dolfinx series.
+    """
+    import xml.etree.ElementTree as ET
+
+    import h5py
+
+    ET.register_namespace("xi", XINCLUDE)
+    tree = ET.parse(path)
+    domain = tree.getroot().find("Domain")
+    if domain is None:
+        raise ValueError(f"{path}: not an XDMF file (no Domain)")
+    dropped: list[str] = []
+    for coll in domain.findall("Grid[@GridType='Collection']"):
+        grids = coll.findall("Grid")
+        if len(grids) < frames:
+            raise ValueError(f"{path}: {len(grids)} frames, fewer than the {frames} expected")
+        for grid in grids[frames:]:
+            dropped += [d.text.strip() for d in grid.iter("DataItem") if d.text]
+            coll.remove(grid)
+    if not dropped:
+        return
+    ET.indent(tree, "  ")
+    tmp = path.with_suffix(".xdmf.tmp")
+    tree.write(tmp, encoding="unicode", xml_declaration=True)
+    with h5py.File(path.parent / dropped[0].split(":")[0], "r+") as f:
+        for item in dropped:
+            dset = item.split(":")[1]
+            if dset in f:
+                del f[dset]
+    tmp.replace(path)
 
 
 def read_xdmf(
