@@ -103,7 +103,7 @@ def compare_runs(het: Run, exp: Run, lift_gap: float = LIFT_GAP) -> dict[str, An
     t_land = first_landing(exp, lift_gap)
     to_landing = pair_l2(het, exp, t_land) if t_land is not None else {}
     out_land: dict[str, Any] = {"first_landing_s": t_land}
-    dT = float(het.summary.get("dT", t[1] - t[0] if t.size > 1 else 1.0))  # type: ignore[arg-type]
+    dT = float(het.summary.get("dT", t[1] - t[0] if t.size > 1 else 1.0))
     out: dict[str, Any] = {"wheels": {}}
     worst = 0.0
     for k, dynamic in pair_l2(het, exp).items():
