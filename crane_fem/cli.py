@@ -4,15 +4,41 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import math
 import sys
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from crane_fem import _compat  # noqa: F401  (MPI before dolfinx)
 from crane_fem.errors import CraneFemError
 
+if TYPE_CHECKING:
+    from crane_fem.scenario import Scenario
+
 __all__ = ["main"]
+
+
+def _key_options(parser: argparse.ArgumentParser) -> None:
+    """``--set`` and ``--unset``: a scenario's keys changed on the command line."""
+    parser.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY.PATH=VALUE",
+        help="override a key; VALUE is a TOML value (strings quoted: key='\"text\"')",
+    )
+    parser.add_argument(
+        "--unset",
+        dest="unset",
+        action="append",
+        default=[],
+        metavar="KEY.PATH",
+        help="remove a key of the scenario (before the --set overrides are applied)",
+    )
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -30,13 +56,14 @@ def _parser() -> argparse.ArgumentParser:
         default=None,
         help="output directory (default: out/<scenario name>)",
     )
+    _key_options(run)
     run.add_argument(
-        "--set",
-        dest="overrides",
-        action="append",
-        default=[],
-        metavar="KEY.PATH=VALUE",
-        help="override a key; VALUE is a TOML value",
+        "--restart",
+        type=Path,
+        default=None,
+        metavar="OUTDIR",
+        help="continue the run whose checkpoints are in OUTDIR (output.checkpoint_every), into "
+        "OUTDIR unless -o is given",
     )
     run.add_argument(
         "--progress",
@@ -46,9 +73,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     check = sub.add_parser("check", help="validate a scenario without running it")
     check.add_argument("scenario", type=Path)
-    check.add_argument(
-        "--set", dest="overrides", action="append", default=[], metavar="KEY.PATH=VALUE"
-    )
+    _key_options(check)
     plot = sub.add_parser(
         "plot", help="figures of a run directory, or of the runs in its subdirectories"
     )
@@ -58,9 +83,7 @@ def _parser() -> argparse.ArgumentParser:
     mesh.add_argument(
         "-o", "--output", type=Path, default=None, help="default: meshes/<scenario name>.msh"
     )
-    mesh.add_argument(
-        "--set", dest="overrides", action="append", default=[], metavar="KEY.PATH=VALUE"
-    )
+    _key_options(mesh)
     bench = sub.add_parser(
         "bench",
         help="run benchmark suites: speed against accuracy, stability, the crane ensemble",
@@ -86,10 +109,27 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _error(exc: Exception) -> None:
+    """The one line of an error, on this rank's stderr, in one write (print makes two, which
+    a launcher relaying several ranks may interleave)."""
+    sys.stderr.write(f"crane-fem: error: {exc}\n")
+    sys.stderr.flush()
+
+
+@contextlib.contextmanager
+def _one_line_warnings() -> Iterator[None]:
+    """Every warning as one line on stderr (restored on exit)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        warnings.showwarning = lambda m, *a, **k: print(f"crane-fem: warning: {m}", file=sys.stderr)
+        yield
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit code (0 ok, 2 bad input, 3 unstable run)."""
     from mpi4py import MPI
 
+    from crane_fem._compat import launcher_size_mismatch, venv_mpiexec
     from crane_fem.errors import ScenarioError, UnstableRunError
     from crane_fem.scenario import load_scenario
 
@@ -97,13 +137,20 @@ def main(argv: list[str] | None = None) -> int:
     comm = MPI.COMM_WORLD
     rank0 = comm.rank == 0
     try:
+        mismatch = launcher_size_mismatch(comm.size)
+        if mismatch is not None:
+            raise ScenarioError(
+                f"launched by a foreign MPI launcher ({mismatch}) but this MPI sees "
+                f"{comm.size} process{'es' if comm.size > 1 else ''}; use {venv_mpiexec()}"
+            )
         if args.command == "plot":
             return _plot(args.outdir) if rank0 else 0
         if args.command == "bench":
             return _bench(args, comm)
-        sc = load_scenario(args.scenario, args.overrides)
-        if args.command == "mesh":
-            from crane_fem.geometry.crane import write_crane_mesh
+        mesh_cmd = args.command == "mesh"
+        sc = load_scenario(args.scenario, args.overrides, args.unset, read_mesh=not mesh_cmd)
+        if mesh_cmd:
+            from crane_fem.geometry.crane import mesh_sidecar, write_crane_mesh
             from crane_fem.scenario import CraneModel
 
             if not isinstance(sc.model, CraneModel):
@@ -111,47 +158,78 @@ def main(argv: list[str] | None = None) -> int:
             path = args.output or Path("meshes") / f"{sc.name}.msh"
             if rank0:
                 info = write_crane_mesh(sc.model.geometry(), path)
-                print(f"crane-fem: wrote {path} ({info})")
+                print(f"crane-fem: wrote {path} ({info}) and {mesh_sidecar(path)}")
             return 0
         if args.command == "check":
-            if sc.coupled_path:
-                from crane_fem.pipeline import check_simulation
-
-                check_simulation(sc, comm)
+            with _one_line_warnings():
+                what = _check(sc, comm)
             if rank0:
-                print(f"{args.scenario}: ok ({sc.model.kind}, {sc.integrator.scheme})")
+                print(f"{args.scenario}: ok ({sc.model.kind}; {what})")
             return 0
-        from crane_fem.driver import run_scenario
-
-        outdir = args.output if args.output is not None else Path("out") / sc.name
-        with warnings.catch_warnings():
-            warnings.simplefilter("always")
-            # Restored by catch_warnings on exit: one line per warning, on stderr.
-            warnings.showwarning = lambda m, *a, **k: print(
-                f"crane-fem: warning: {m}", file=sys.stderr
-            )
-            result = run_scenario(sc, outdir, comm, progress=args.progress)
-        s = result.summary
-        if rank0:
-            print(
-                f"crane-fem: {sc.name}: {s['steps']} steps of Δt = {s['dt']:.4e} s "
-                f"(critical {s['dt_critical']:.4e} s) in {s['wall_time_s']:.2f} s; "
-                f"energy balance error {s['energy_balance_error']:.2e}; "
-                f"{s['contact_intervals']} contact interval(s)"
-            )
-            xdmf = sorted(p.name for p in Path(outdir).glob("*.xdmf"))
-            files = ["history.csv", "summary.json", *xdmf]
-            print(f"crane-fem: outputs in {outdir}/ ({', '.join(files)})")
-        return 0
+        return _run(sc, args, comm)
     except ScenarioError as exc:
-        print(f"crane-fem: error: {exc}", file=sys.stderr)
+        _error(exc)
         return 2
     except UnstableRunError as exc:
-        print(f"crane-fem: error: {exc}", file=sys.stderr)
+        _error(exc)
         return 3
     except CraneFemError as exc:
-        print(f"crane-fem: error: {exc}", file=sys.stderr)
+        _error(exc)
         return 1
+
+
+def _check(sc: Scenario, comm: Any) -> str:
+    """What ``run`` refuses before integrating, refused here (collective: builds the mesh and
+    the subdomains, or the bar's problem, and destroys them); returns the scheme that will
+    run and its step, e.g. ``gc, m = 100: cd-lagrange on contact_zones, newmark on
+    structure; Δt = 1.3026e-06 s (0.9× critical 1.4473e-06 s)``."""
+    if sc.coupled_path:
+        from crane_fem.pipeline import check_simulation
+
+        return check_simulation(sc, comm).describe()
+    from crane_fem.driver import Simulation
+
+    sim = Simulation(sc, comm)
+    try:
+        limit = min(sim.dt_critical, sim.dt_critical_penalty or math.inf)
+        what = "critical" if sim.dt_critical_penalty is None else "critical with the springs"
+        return (
+            f"{sc.integrator.scheme}; Δt = {sim.dt:.4e} s ({sim.dt / limit:.3g}× {what} "
+            f"{limit:.4e} s)"
+        )
+    finally:
+        sim.destroy()
+
+
+def _run(sc: Scenario, args: argparse.Namespace, comm: Any) -> int:
+    """Prepare the output directory, run, and say where the outputs are (collective)."""
+    from crane_fem.driver import run_scenario
+    from crane_fem.io import prepare_output_dir
+
+    rank0 = comm.rank == 0
+    restart = args.restart
+    outdir = args.output if args.output is not None else restart or Path("out") / sc.name
+    # The run continues in the restart directory: its files are kept. Another output
+    # directory is a new run's: cleared.
+    same = restart is not None and Path(outdir).resolve() == Path(restart).resolve()
+    removed = prepare_output_dir(outdir, comm, restart=same)
+    if rank0 and removed:
+        names = ", ".join(removed)
+        print(f"crane-fem: removed the outputs of an earlier run in {outdir}/: {names}")
+    with _one_line_warnings():
+        result = run_scenario(sc, outdir, comm, progress=args.progress, restart=restart)
+    s = result.summary
+    if rank0:
+        print(
+            f"crane-fem: {sc.name}: {s['steps']} steps of Δt = {s['dt']:.4e} s "
+            f"(critical {s['dt_critical']:.4e} s) in {s['wall_time_s']:.2f} s; "
+            f"energy balance error {s['energy_balance_error']:.2e}; "
+            f"{s['contact_intervals']} contact interval(s)"
+        )
+        xdmf = sorted(p.name for p in Path(outdir).glob("*.xdmf"))
+        files = ["history.csv", "summary.json", *xdmf]
+        print(f"crane-fem: outputs in {outdir}/ ({', '.join(files)})")
+    return 0
 
 
 def _bench(args: argparse.Namespace, comm: Any) -> int:
@@ -199,7 +277,7 @@ def _plot(outdir: Path) -> int:
         paths = plot_outputs(outdir)
         compared = write_comparison(outdir)
     except (FileNotFoundError, ValueError) as exc:
-        print(f"crane-fem: error: {exc}", file=sys.stderr)
+        _error(exc)
         return 2
     for p in paths:
         print(f"crane-fem: wrote {p}")

@@ -24,6 +24,7 @@ __all__ = [
     "Integrator",
     "Scenario",
     "apply_overrides",
+    "apply_unsets",
     "load_scenario",
     "parse_scenario",
 ]
@@ -626,8 +627,81 @@ def _allowed_keys(section: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
     return sorted(model.model_fields)
 
 
+#: Union-branch tags pydantic inserts in error locations besides those with a "[" in them
+#: ("list[...]", "literal['auto']", "function-after[...]"); no scenario key has these names.
+_SCALAR_TAGS = {"bool", "int", "float", "str", "none", "constrained-float", "constrained-int"}
+
+
+def _is_tag(part: Any) -> bool:
+    """A union-branch tag in an error location, not a key."""
+    return isinstance(part, str) and ("[" in part or part in _SCALAR_TAGS)
+
+
+def _leaf(e: Any) -> bool:
+    """The error is a union branch refusing the input as a whole (its type, or a literal):
+    not a branch that took the input and then found a problem inside it."""
+    return bool(e["loc"]) and _is_tag(e["loc"][-1]) and e["type"] != "value_error"
+
+
+def _expected(e: Any) -> list[str]:
+    """What a branch expected, as alternatives: "a table", "'auto'", "a valid boolean"."""
+    if e["type"] in ("model_type", "model_attributes_type", "dict_type"):
+        return ["a table"]
+    if e["type"] == "list_type":
+        of_tables = any(c.isupper() for c in e["loc"][-1])  # a list of a model class
+        return ["an array of tables" if of_tables else "an array"]
+    if e["type"] == "literal_error":
+        return [x.strip() for x in str(e["ctx"]["expected"]).replace(" or ", ", ").split(",")]
+    msg = str(e["msg"])
+    return [msg.removeprefix("Input should be ")]
+
+
+def _real_errors(errors: list[Any]) -> list[Any]:
+    """The errors of the union branch the input was meant for: of ``[loading.ground_motion]``
+    (a table or an array of tables) with a bad value, that value's error, not also "should
+    be a valid list" from the other branch; where every branch refused the input as a whole
+    (a string for a table, an unknown name), one error listing what it should be."""
+    # Unions where some branch took the input: its errors are the real ones.
+    taken = set()
+    for e in errors:
+        if _leaf(e):
+            continue
+        loc = e["loc"]
+        taken |= {loc[:i] for i in range(len(loc)) if _is_tag(loc[i])}
+    out: list[Any] = []
+    merged: dict[tuple[Any, ...], Any] = {}
+    for e in errors:
+        if not _leaf(e):
+            out.append(e)
+            continue
+        where = e["loc"][:-1]
+        if where in taken:
+            continue
+        if where not in merged:
+            merged[where] = {**e, "loc": where, "type": "union_type", "expected": []}
+            out.append(merged[where])
+        merged[where]["expected"] += [x for x in _expected(e) if x not in merged[where]["expected"]]
+    for e in merged.values():
+        alts = e["expected"]
+        e["msg"] = "Input should be " + (
+            alts[0] if len(alts) == 1 else f"{', '.join(alts[:-1])} or {alts[-1]}"
+        )
+    return out
+
+
+def _path(loc: tuple[Any, ...]) -> str:
+    """``model.length``, ``subdomain[1].modes``: the key of an error location, with the tags
+    pydantic inserts dropped (the discriminator after "model", union branches)."""
+    raw = tuple(p for p in loc if not _is_tag(p))
+    key = tuple(
+        p for i, p in enumerate(raw) if not (i > 0 and raw[i - 1] == "model" and p in MODEL_KINDS)
+    )
+    return ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in key).replace(".[", "[")
+
+
 def _format_error(source: str, exc: ValidationError) -> str:
-    """One line: ``source: key.path: what is wrong (got value)``."""
+    """One line: ``source: key.path: what is wrong (got value)``, then the keys of any other
+    distinct problems (``[also: material.E]``)."""
 
     # An unknown key is usually the root cause (a typo that also leaves a key missing); of a
     # union "table or array of tables", the table branch speaks for a table.
@@ -635,15 +709,10 @@ def _format_error(source: str, exc: ValidationError) -> str:
         in_list = any(isinstance(p, str) and p.startswith("list[") for p in e["loc"])
         return e["type"] != "extra_forbidden", in_list
 
-    errors = sorted(exc.errors(), key=rank)
+    errors = sorted(_real_errors(exc.errors()), key=rank)
     err = errors[0]
-    # Drop the tags pydantic inserts: the discriminator after "model" (model.bar.length ->
-    # model.length) and union branches ("function-after[...]", "list[...]").
-    raw = tuple(p for p in err["loc"] if not (isinstance(p, str) and "[" in p))
-    loc = tuple(
-        p for i, p in enumerate(raw) if not (i > 0 and raw[i - 1] == "model" and p in MODEL_KINDS)
-    )
-    path = ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in loc).replace(".[", "[")
+    raw = tuple(p for p in err["loc"] if not _is_tag(p))
+    path = _path(err["loc"])
     kind = err["type"]
     if kind == "union_tag_invalid":
         path = f"{path}.kind"
@@ -654,14 +723,19 @@ def _format_error(source: str, exc: ValidationError) -> str:
         msg = f"unknown key; allowed here: {allowed}"
     elif kind == "missing":
         msg = "required key is missing"
+    elif kind == "union_type":
+        msg = f"{err['msg']} (got {err['input']!r})"
+    elif kind in ("model_type", "model_attributes_type", "dict_type"):
+        msg = f"Input should be a table (got {err['input']!r})"
     else:
         msg = err["msg"]
         if msg.startswith("Value error, "):
             msg = msg[len("Value error, ") :]
         if kind != "value_error":
             msg = f"{msg} (got {err['input']!r})"
-    more = len(exc.errors()) - 1
-    tail = f" [and {more} more problem{'s' if more > 1 else ''}]" if more else ""
+    others = [o or "(top level)" for o in dict.fromkeys(_path(e["loc"]) for e in errors[1:])]
+    others = [o for o in others if o != (path or "(top level)")]
+    tail = f" [also: {', '.join(others)}]" if others else ""
     where = f"{path}: " if path else ""
     return f"{source}: {where}{msg}{tail}"
 
@@ -722,13 +796,132 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any
     return data
 
 
-def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scenario:
-    """Read, override and validate a scenario file.
+def apply_unsets(data: dict[str, Any], keys: list[str]) -> dict[str, Any]:
+    """Remove keys (``loading.ground_motion.pga``; a number in the path indexes an array of
+    tables, as for :func:`apply_overrides`) from a scenario mapping, so that they take their
+    defaults or, with ``--set``, other keys can replace them.
+
+    Raises:
+        ScenarioError: a key that is not in the scenario, naming it.
+    """
+    for key in keys:
+        parts = key.strip().split(".")
+        if not key.strip() or any(not p for p in parts):
+            raise ScenarioError(f"--unset {key}: empty key")
+        node: Any = data
+        for i, part in enumerate(parts):
+            last = i == len(parts) - 1
+            if isinstance(node, list) and part.isdigit() and int(part) < len(node):
+                if last:
+                    del node[int(part)]
+                else:
+                    node = node[int(part)]
+                continue
+            if not isinstance(node, dict) or part not in node:
+                raise ScenarioError(f"--unset {key}: no key {'.'.join(parts[: i + 1])} to unset")
+            if last:
+                del node[part]
+            else:
+                node = node[part]
+    return data
+
+
+def _resolve_paths(data: dict[str, Any], base: Path) -> None:
+    """Make the scenario's relative file paths relative to the scenario file's directory:
+    ``model.mesh`` and every ground-motion record that is a file (not a bundled name, not
+    ``synthetic``), as an include would be; ``--set`` values included."""
+    from crane_fem.loading.accelerogram import BUNDLED
+
+    mdl = data.get("model")
+    if isinstance(mdl, dict) and isinstance(mdl.get("mesh"), str):
+        mesh = Path(mdl["mesh"])
+        if not mesh.is_absolute():
+            mdl["mesh"] = str(base / mesh)
+    loading = data.get("loading")
+    gm = loading.get("ground_motion") if isinstance(loading, dict) else None
+    for motion in gm if isinstance(gm, list) else [gm]:
+        if not isinstance(motion, dict):
+            continue
+        record = motion.get("record")
+        if not isinstance(record, str) or record == "synthetic" or record in BUNDLED:
+            continue
+        if not Path(record).is_absolute():
+            motion["record"] = str(base / record)
+
+
+#: The crane model's keys that describe its mesh (those of
+#: :class:`crane_fem.geometry.crane.CraneGeometry`).
+_MESH_KEYS = tuple(k for k in CraneModel.model_fields if k not in ("kind", "hoisted_mass", "mesh"))
+
+
+def _fill_from_mesh(mdl: dict[str, Any]) -> tuple[list[str], dict[str, float] | None]:
+    """Give a crane's geometry keys that the scenario leaves out the values its
+    ``model.mesh`` was written with (the mesh's sidecar, crane_fem.geometry.crane.mesh_sidecar).
+    Returns the keys the scenario gives and the mesh's geometry (None: no sidecar)."""
+    from crane_fem.geometry.crane import read_mesh_sidecar
+
+    given = [k for k in _MESH_KEYS if k in mdl]
+    written = read_mesh_sidecar(mdl["mesh"]) if Path(mdl["mesh"]).is_file() else None
+    if written is not None:
+        for key in _MESH_KEYS:
+            mdl.setdefault(key, written[key])
+    return given, written
+
+
+def _check_mesh_geometry(
+    mdl: CraneModel, given: list[str], written: dict[str, float] | None
+) -> None:
+    """A crane's ``model.mesh`` exists and its geometry keys given in the scenario are those
+    it was written with. Not collective (every rank reads the same files, before any
+    collective call).
+
+    Raises:
+        ScenarioError: the mesh is not a file; a geometry key differs from the mesh's; the
+            mesh has no sidecar while geometry keys are given (they cannot be checked).
+    """
+    from crane_fem.geometry.crane import mesh_sidecar
+
+    assert mdl.mesh is not None
+    mesh = Path(mdl.mesh)
+    if not mesh.is_file():
+        raise ScenarioError(f"model.mesh: {mesh} is not a file (write it with crane-fem mesh)")
+    if written is None:
+        if given:
+            keys = ", ".join(f"model.{k}" for k in given)
+            raise ScenarioError(
+                f"model.mesh: {mesh} has no {mesh_sidecar(mesh).name} recording the geometry "
+                f"it was made from, so {keys} cannot be checked against it: write it with "
+                "crane-fem mesh, or drop those keys to take the mesh as it is"
+            )
+        return
+    for key in given:
+        value = float(getattr(mdl, key))
+        if abs(value - written[key]) > 1e-12 * max(abs(written[key]), 1.0):
+            raise ScenarioError(
+                f"model.{key} = {value:g} disagrees with model.mesh {mesh} (made with "
+                f"{key} = {written[key]:g}, {mesh_sidecar(mesh).name}): drop the key to use "
+                "that mesh, or unset model.mesh to mesh the geometry (crane-fem mesh writes it)"
+            )
+
+
+def load_scenario(
+    path: str | Path,
+    overrides: list[str] | None = None,
+    unset: list[str] | None = None,
+    *,
+    read_mesh: bool = True,
+) -> Scenario:
+    """Read, unset keys (``unset``), override (``overrides``) and validate a scenario file.
+
+    Relative paths (``model.mesh``, record files) are relative to the scenario file. A
+    crane's ``model.mesh`` is checked against its geometry keys unless ``read_mesh`` is
+    False (``crane-fem mesh``, which writes the mesh from them).
 
     Not collective: every rank may call it; all ranks raise the same error on bad input.
 
     Raises:
-        ScenarioError: missing/unreadable file, TOML syntax, or invalid keys/values.
+        ScenarioError: missing/unreadable file, TOML syntax, a key to unset that is not
+            there, invalid keys/values, or geometry keys that disagree with the mesh.
     """
     p = Path(path)
     if not p.is_file():
@@ -740,11 +933,20 @@ def load_scenario(path: str | Path, overrides: list[str] | None = None) -> Scena
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(f"{p}: cannot read the scenario: {exc}") from None
     data.setdefault("name", p.stem)
+    apply_unsets(data, unset or [])
     apply_overrides(data, overrides or [])
-    # A relative mesh path is relative to the scenario file (as an include would be).
+    _resolve_paths(data, p.parent)
     mdl = data.get("model")
-    if isinstance(mdl, dict) and isinstance(mdl.get("mesh"), str):
-        mesh = Path(mdl["mesh"])
-        if not mesh.is_absolute():
-            mdl["mesh"] = str(p.parent / mesh)
-    return parse_scenario(data, str(p))
+    mesh = isinstance(mdl, dict) and mdl.get("kind") == "crane" and isinstance(mdl.get("mesh"), str)
+    mesh = mesh and read_mesh
+    try:
+        # The keys are validated with the mesh's geometry, then compared with it.
+        given, written = _fill_from_mesh(mdl) if mesh and isinstance(mdl, dict) else ([], None)
+        sc = parse_scenario(data, str(p))
+        if mesh:
+            assert isinstance(sc.model, CraneModel)
+            _check_mesh_geometry(sc.model, given, written)
+    except ScenarioError as exc:
+        msg = str(exc)
+        raise ScenarioError(msg if msg.startswith(f"{p}: ") else f"{p}: {msg}") from None
+    return sc

@@ -17,7 +17,8 @@ vertical shake rocked and pitched the trolley (10 % of the wheel response), from
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import json
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
 import dolfinx.io.gmsh
@@ -38,6 +39,8 @@ __all__ = [
     "create_crane_mesh",
     "input_nodes_to_global_vertices",
     "mesh_info",
+    "mesh_sidecar",
+    "read_mesh_sidecar",
     "write_crane_mesh",
 ]
 
@@ -488,8 +491,36 @@ def mesh_info() -> CraneMeshInfo:
     return CraneMeshInfo(volume_groups, surface_groups, contact_pairs)
 
 
+def mesh_sidecar(path: str | Path) -> Path:
+    """The file beside a crane mesh that records the geometry it was made from:
+    ``meshes/crane.msh`` -> ``meshes/crane.json``."""
+    return Path(path).with_suffix(".json")
+
+
+def read_mesh_sidecar(path: str | Path) -> dict[str, float] | None:
+    """The geometry (every :class:`CraneGeometry` field) a crane mesh was written from, read
+    from its sidecar (:func:`mesh_sidecar`), or None if it has none (not collective).
+
+    Raises:
+        ScenarioError: the sidecar is not one written by :func:`write_crane_mesh`.
+    """
+    side = mesh_sidecar(path)
+    if not side.is_file():
+        return None
+    try:
+        geometry = json.loads(side.read_text(encoding="utf-8"))["geometry"]
+        values = {f.name: float(geometry[f.name]) for f in fields(CraneGeometry)}
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise ScenarioError(
+            f"model.mesh: {side} is not the geometry record crane-fem mesh writes ({exc!r}); "
+            "write the mesh again with crane-fem mesh"
+        ) from None
+    return values
+
+
 def write_crane_mesh(geo: CraneGeometry, path: str | Path) -> str:
-    """Mesh the crane and write it as a gmsh 4.1 ``.msh`` file (not collective: one process).
+    """Mesh the crane and write it as a gmsh 4.1 ``.msh`` file, with the geometry it was made
+    from in its sidecar ``.json`` (:func:`mesh_sidecar`; not collective: one process).
 
     gmsh meshes deterministically (one thread), so the same parameters give the same file.
     Returns a one-line description (nodes, tetrahedra, contact pairs).
@@ -512,6 +543,15 @@ def write_crane_mesh(geo: CraneGeometry, path: str | Path) -> str:
     finally:
         gmsh.finalize()
     n_pairs = sum(w.size for w, _ in info.contact_pairs)
+    record = {
+        "written_by": "crane-fem mesh",
+        "mesh": path.name,
+        "geometry": asdict(geo),
+        "nodes": n_nodes,
+        "tetrahedra": n_tets,
+        "wheel_rail_pairs": n_pairs,
+    }
+    mesh_sidecar(path).write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
     return f"{n_nodes} nodes, {n_tets} tetrahedra, {n_pairs} wheel/rail node pairs"
 
 

@@ -64,17 +64,37 @@ class Accelerogram:
         return Accelerogram(self.t, factor * self.a, f"{factor:g}×{self.name}")
 
 
+def _bad_value(p: Path, numbered: list[tuple[int, str]]) -> str:
+    """The message naming the first line of ``numbered`` (line number, text) that holds a
+    value that is not a finite number."""
+    for k, line in numbered:
+        for tok in line.split():
+            try:
+                ok = math.isfinite(float(tok))
+            except ValueError:
+                return f"{p}: line {k}: {tok!r} is not a number"
+            if not ok:
+                return f"{p}: line {k}: {tok!r} is not a finite number"
+    return f"{p}: a value is not a finite number"  # pragma: no cover  (the caller saw one)
+
+
 def read_at2(path: str | Path) -> Accelerogram:
     """Read a PEER NGA AT2 file (4 header lines, NPTS/DT line, values in g); lines starting
     with '#' before the header are comments.
 
     Raises:
-        ScenarioError: missing file or a malformed header / value count, naming the file.
+        ScenarioError: missing file, a malformed header / value count, or a value that is
+            not a finite number (NaN, inf), naming the file and the line.
     """
     p = Path(path)
     if not p.is_file():
         raise ScenarioError(f"{p}: accelerogram file not found")
-    lines = [ln for ln in p.read_text(encoding="latin-1").splitlines() if not ln.startswith("#")]
+    try:
+        text = p.read_text(encoding="latin-1")
+    except OSError as exc:
+        raise ScenarioError(f"{p}: cannot read the accelerogram ({exc.strerror or exc})") from None
+    numbered = [(k + 1, ln) for k, ln in enumerate(text.splitlines()) if not ln.startswith("#")]
+    lines = [ln for _, ln in numbered]
     if len(lines) < 5:
         raise ScenarioError(f"{p}: not a PEER AT2 file (expected 4 header lines and values)")
     if "UNITS OF G" not in lines[2].upper():
@@ -82,15 +102,24 @@ def read_at2(path: str | Path) -> Accelerogram:
     m = re.search(r"NPTS\s*=\s*(\d+)\s*,\s*DT\s*=\s*([0-9.Ee+-]+)", lines[3])
     if m is None:
         raise ScenarioError(f"{p}: AT2 line 4 must read 'NPTS= n, DT= dt SEC'")
-    npts, dt = int(m.group(1)), float(m.group(2))
+    npts = int(m.group(1))
+    try:
+        dt = float(m.group(2))
+    except ValueError:
+        dt = math.nan
+    if not (math.isfinite(dt) and dt > 0.0):
+        raise ScenarioError(
+            f"{p}: line {numbered[3][0]}: DT must be a positive finite number, got {m.group(2)}"
+        )
     try:
         values = np.array(" ".join(lines[4:]).split(), dtype=np.float64)
+        finite = bool(np.all(np.isfinite(values)))
     except ValueError:
-        raise ScenarioError(f"{p}: non-numeric value in the AT2 data") from None
+        finite = False
+    if not finite:
+        raise ScenarioError(_bad_value(p, numbered[4:]))
     if values.size != npts:
         raise ScenarioError(f"{p}: header says NPTS={npts} but the file holds {values.size}")
-    if not dt > 0.0:
-        raise ScenarioError(f"{p}: DT must be positive, got {dt}")
     return Accelerogram(dt * np.arange(npts, dtype=np.float64), G * values, p.stem)
 
 
@@ -98,28 +127,37 @@ def read_csv(path: str | Path, units: str = "m/s2") -> Accelerogram:
     """Read a two-column CSV (t in s, a in ``units``: 'm/s2' or 'g'); a header row is allowed.
 
     Raises:
-        ScenarioError: missing file, bad columns, or times not strictly increasing.
+        ScenarioError: missing file, bad columns, a value that is not a finite number (NaN,
+            inf: naming the line), or times not strictly increasing.
     """
     p = Path(path)
     if not p.is_file():
         raise ScenarioError(f"{p}: accelerogram file not found")
-    rows = []
-    for k, line in enumerate(p.read_text(encoding="utf-8").splitlines()):
+    if units not in ("m/s2", "g"):
+        raise ScenarioError(f"accelerogram units must be 'm/s2' or 'g', got {units!r}")
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ScenarioError(f"{p}: cannot read the accelerogram ({exc})") from None
+    rows: list[list[float]] = []
+    for k, line in enumerate(text.splitlines()):
         parts = [s.strip() for s in line.split(",")]
         if not line.strip() or line.startswith("#"):
             continue
         try:
-            rows.append([float(parts[0]), float(parts[1])])
+            row = [float(parts[0]), float(parts[1])]
         except (ValueError, IndexError):
             if rows:
                 raise ScenarioError(f"{p}: line {k + 1}: expected 't, a' numbers") from None
+            continue  # a header row
+        if not all(math.isfinite(x) for x in row):
+            raise ScenarioError(f"{p}: line {k + 1}: {line.strip()!r} is not a finite number")
+        rows.append(row)
     if len(rows) < 2:
         raise ScenarioError(f"{p}: at least two 't, a' rows are needed")
     data = np.array(rows)
     if np.any(np.diff(data[:, 0]) <= 0.0):
         raise ScenarioError(f"{p}: times must be strictly increasing")
-    if units not in ("m/s2", "g"):
-        raise ScenarioError(f"accelerogram units must be 'm/s2' or 'g', got {units!r}")
     scale = G if units == "g" else 1.0
     return Accelerogram(data[:, 0] - data[0, 0], scale * data[:, 1], p.stem)
 

@@ -9,6 +9,7 @@ import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 
+from crane_fem.errors import ScenarioError
 from crane_fem.geometry import groups
 from crane_fem.pipeline.constraints import ConstraintStage, build_constraints
 from crane_fem.pipeline.integrators import IntegratorStage, build_integrators
@@ -17,7 +18,7 @@ from crane_fem.pipeline.models import ModelStage, build_models
 from crane_fem.reduction import check_modes, interior_dofs
 from crane_fem.scenario import BoxBeamModel, CraneModel, Scenario
 
-__all__ = ["Simulation", "check_simulation", "create_simulation"]
+__all__ = ["Simulation", "SimulationCheck", "check_simulation", "create_simulation"]
 
 
 @dataclass
@@ -62,20 +63,99 @@ def create_simulation(sc: Scenario, comm: MPI.Comm) -> Simulation:
     return Simulation(sc, mesh, models, constraints, integrators)
 
 
-def check_simulation(sc: Scenario, comm: MPI.Comm) -> None:
-    """What ``run`` refuses after reading the mesh, refused without integrating: a reduced
-    implicit subdomain with more modes than interior DOFs (collective; meshes and builds the
-    subdomains)."""
-    spec = next((s for s in sc.subdomain if s.scheme == "newmark-reduced"), None)
-    if spec is None or spec.modes is None:
-        return
+@dataclass(frozen=True)
+class SimulationCheck:
+    """What a scenario with subdomains will run, as :func:`check_simulation` found it.
+
+    Attributes:
+        method, ratio: the coupling method ("monolithic" for one subdomain) and m.
+        explicit, implicit: (scheme, [[subdomain]] names) of each side, or None.
+        dt, dt_critical: the micro step and the explicit side's critical step (s).
+    """
+
+    method: str
+    ratio: int
+    explicit: tuple[str, list[str]] | None
+    implicit: tuple[str, list[str]] | None
+    dt: float
+    dt_critical: float
+
+    def describe(self) -> str:
+        """``gc, m = 100: cd-lagrange on contact_zones, newmark on structure; Δt = …`` or
+        ``monolithic cd-lagrange; Δt = …``."""
+        sides = [s for s in (self.explicit, self.implicit) if s is not None]
+        if self.explicit is not None and self.implicit is not None:
+            parts = ", ".join(f"{scheme} on {', '.join(names)}" for scheme, names in sides)
+            head = f"{self.method}, m = {self.ratio}: {parts}"
+        else:
+            head = f"monolithic {sides[0][0]}"
+        return (
+            f"{head}; Δt = {self.dt:.4e} s ({self.dt / self.dt_critical:.3g}× critical "
+            f"{self.dt_critical:.4e} s)"
+        )
+
+
+def _scheme(sc: Scenario, names: list[str], default: str) -> str:
+    """The scheme of a side, named as in the scenario (``newmark-reduced, 40 modes``)."""
+    spec = next((s for s in sc.subdomain if s.name in names), None)
+    if spec is None or (sc.coupling is not None and sc.coupling.method == "monolithic"):
+        return default
+    if spec.scheme != "newmark-reduced":
+        return str(spec.scheme)
+    basis = f"{spec.modes} modes" if spec.modes else f"modes below {spec.cutoff:g} Hz"
+    return f"newmark-reduced ({basis})"
+
+
+def _read_records(sc: Scenario, comm: MPI.Comm) -> None:
+    """Read every ground-motion record as ``run`` will (a missing or unknown record, a value
+    that is not a number, a window past its end); an error on any rank is raised on all."""
+    from crane_fem.pipeline.loads import ground_motion
+
+    error: str | None = None
+    try:
+        for gm in sc.loading.ground_motions:
+            ground_motion(gm)
+    except ScenarioError as exc:
+        error = str(exc)
+    errors = [e for e in comm.allgather(error) if e is not None]
+    if errors:
+        raise ScenarioError(errors[0])
+
+
+def check_simulation(sc: Scenario, comm: MPI.Comm) -> SimulationCheck:
+    """What ``run`` refuses before integrating, refused without integrating: a missing,
+    unknown or malformed record, a missing or foreign mesh, Δt above the explicit side's
+    critical step, subdomains that do not touch or leave a contact without an explicit side,
+    a reduced implicit subdomain with more modes than interior DOFs.
+
+    Collective over ``comm``: meshes and builds the subdomains and the constraints (no
+    integrators), and destroys them.
+
+    Returns:
+        The schemes that will run on which subdomains, and the step.
+
+    Raises:
+        ScenarioError: the same one line on every rank.
+    """
+    _read_records(sc, comm)
     mesh = build_mesh(sc, comm)
     models = build_models(sc, mesh)
     try:
         constraints = build_constraints(sc, mesh, models)
-        if models.implicit is not None:
-            rows = constraints.l_implicit
-            _, n_int = interior_dofs(models.implicit.model, rows)
+        spec = next((s for s in sc.subdomain if s.scheme == "newmark-reduced"), None)
+        if spec is not None and spec.modes is not None and models.implicit is not None:
+            _, n_int = interior_dofs(models.implicit.model, constraints.l_implicit)
             check_modes(spec.modes, n_int)
+        explicit = implicit = None
+        if models.explicit is not None:
+            explicit = (_scheme(sc, models.explicit_names, "cd-lagrange"), models.explicit_names)
+        if models.implicit is not None:
+            implicit = (_scheme(sc, models.implicit_names, "newmark"), models.implicit_names)
+        if not models.coupled and sc.coupling is not None and sc.coupling.method == "monolithic":
+            only = (sc.coupling.monolithic_scheme, ["all"])
+            explicit, implicit = (only, None) if explicit is not None else (None, only)
+        return SimulationCheck(
+            models.method, models.ratio, explicit, implicit, models.dt, models.dt_critical
+        )
     finally:
         models.destroy()
