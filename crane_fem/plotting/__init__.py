@@ -40,7 +40,7 @@ from crane_fem.plotting.motion import ground_motion_series, input_motion_figure
 from crane_fem.plotting.render import nearest_frame, render_peak, render_runs
 from crane_fem.plotting.response_spectra import spectra_figure
 from crane_fem.plotting.runs import Run, load_runs
-from crane_fem.plotting.wheels import force_figure, group_wheels, pair_figure, wheels
+from crane_fem.plotting.wheels import force_figure, group_wheels, pair_figure, wheel_numbers
 
 __all__ = [
     "Figures",
@@ -78,7 +78,7 @@ def plot_figures(outdir: Path) -> Figures:
     figdir = outdir / "figures"
     figdir.mkdir(parents=True, exist_ok=True)
     made: list[Path | None] = [input_motion_figure(runs, figdir / "input_motion.png")]
-    if any(wheels(r) for r in runs):
+    if any(wheel_numbers(r) for r in runs):
         made.append(
             pair_figure(
                 runs,

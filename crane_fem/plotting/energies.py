@@ -40,7 +40,7 @@ def energy_figure(runs: list[Run], path: Path) -> Path:
         [(name.replace("_", " "), {"color": colours[name]}) for name in drawn]
         + [("balance (total − total₀)", {"color": "k", "lw": 1.3})]
         + (
-            [(r.label, {"color": "k", "ls": run_dash(i)}) for i, r in enumerate(runs)]
+            [(r.label, {"color": "0.45", "ls": run_dash(i)}) for i, r in enumerate(runs)]
             if len(runs) > 1
             else []
         ),

@@ -12,7 +12,15 @@ import numpy.typing as npt
 
 from crane_fem.plotting.runs import Run, incomplete_tag
 
-__all__ = ["XdmfFrames", "nearest_frame", "render_peak", "render_runs"]
+__all__ = [
+    "PeakFrame",
+    "XdmfFrames",
+    "load_peak_frame",
+    "nearest_frame",
+    "nice_top",
+    "render_peak",
+    "render_runs",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -74,15 +82,18 @@ class XdmfFrames:
 
 
 @dataclass
-class _Frame:
-    """One run's render data at one frame: parts (geometry, tets, u, von Mises in Pa)."""
+class PeakFrame:
+    """One run's render data at one XDMF frame: per subdomain file (geometry, tetrahedra,
+    displacement (m), von Mises stress (Pa) per cell or None); the frame's index and time, and
+    the summary's peak time (None when the summary has none)."""
 
     parts: list[tuple[FloatArray, npt.NDArray[np.int64], FloatArray, FloatArray | None]]
+    index: int
     t: float
-    t_peak: float | None  # the summary's peak time, None when it has none
+    t_peak: float | None
 
 
-def _load_frame(run: Run) -> _Frame | None:
+def load_peak_frame(run: Run) -> PeakFrame | None:
     """The frame to render: nearest the summary's ``peak_bridge_von_mises_t``, else the frame
     of largest von Mises stress, else of largest displacement; None if the run has no 3D XDMF
     output (bar scenes, ``output.xdmf = false``)."""
@@ -119,10 +130,10 @@ def _load_frame(run: Run) -> _Frame | None:
         )
         for s in series
     ]
-    return _Frame(parts, float(times[k]), None if t_peak is None else float(t_peak))
+    return PeakFrame(parts, k, float(times[k]), None if t_peak is None else float(t_peak))
 
 
-def _title(run: Run, frame: _Frame, factor: float) -> str:
+def _title(run: Run, frame: PeakFrame, factor: float) -> str:
     s = run.summary
     who = " — ".join(str(x) for x in (s.get("scenario"), run.label) if x)
     if frame.t_peak is None:
@@ -161,14 +172,14 @@ def render_peak(
     Returns:
         ``path``, or None when the run has no 3D XDMF output.
     """
-    frame = _load_frame(run)
+    frame = load_peak_frame(run)
     return None if frame is None else _render(run, frame, path, warp, clim)
 
 
 def render_runs(runs: list[Run], figdir: Path) -> list[Path]:
     """``render_peak.png`` of the first run that has 3D XDMF output, ``render_peak_<dir>.png``
     of the others, on one colour range (the largest frame maximum) so they compare."""
-    frames = [(r, f) for r in runs if (f := _load_frame(r)) is not None]
+    frames = [(r, f) for r in runs if (f := load_peak_frame(r)) is not None]
     top = max((_vm_max(f) for _, f in frames), default=0.0)
     clim = (0.0, nice_top(top / 1e6))
     return [
@@ -194,13 +205,13 @@ def nice_top(value: float, intervals: int = 5) -> float:
     return float(intervals * step)
 
 
-def _vm_max(frame: _Frame) -> float:
+def _vm_max(frame: PeakFrame) -> float:
     return max((float(vm.max()) for *_, vm in frame.parts if vm is not None), default=0.0)
 
 
 def _render(
     run: Run,
-    frame: _Frame,
+    frame: PeakFrame,
     path: Path,
     warp: float | None,
     clim: tuple[float, float] | None,

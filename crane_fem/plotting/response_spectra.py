@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
@@ -10,26 +9,11 @@ import numpy.typing as npt
 
 from crane_fem.plotting.runs import Run, figure_title
 from crane_fem.plotting.style import figure_legend, run_dash, save
+from crane_fem.spectra import G, read_spectra_csv
 
-__all__ = ["G", "read_spectra", "spectra_figure", "split_direction"]
+__all__ = ["spectra_figure", "split_direction"]
 
 FloatArray = npt.NDArray[np.float64]
-
-#: Standard gravity (m/s²): PSA is drawn in g.
-G = 9.80665
-
-
-def read_spectra(path: Path) -> tuple[FloatArray, dict[str, FloatArray]]:
-    """``spectra.csv``: the periods (s) and, per curve name, its PSA (m/s²), from the
-    columns ``period_s`` and ``psa_<name>``."""
-    with path.open(encoding="utf-8") as f:
-        header = next(csv.reader(f))
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
-    if data.shape[0] == 0 or "period_s" not in header:
-        raise ValueError(f"{path}: no period_s column or no rows")
-    cols = {name: data[:, i] for i, name in enumerate(header)}
-    curves = {n.removeprefix("psa_"): v for n, v in cols.items() if n.startswith("psa_")}
-    return cols["period_s"], curves
 
 
 def split_direction(name: str) -> tuple[str, str]:
@@ -45,7 +29,7 @@ def spectra_figure(runs: list[Run], path: Path) -> Path | None:
     import matplotlib.pyplot as plt
 
     data = [
-        (i, r, *read_spectra(r.path / "spectra.csv"))
+        (i, r, *read_spectra_csv(r.path / "spectra.csv"))
         for i, r in enumerate(runs)
         if (r.path / "spectra.csv").exists()
     ]
@@ -88,7 +72,7 @@ def spectra_figure(runs: list[Run], path: Path) -> Path | None:
         [("input (ground)", {"color": "k", "lw": 1.8})] * bool(first_inputs)
         + [(p.replace("_", " "), {"color": colours[p]}) for p in points]
         + (
-            [(r.label, {"color": "k", "ls": run_dash(i)}) for i, r, *_ in data]
+            [(r.label, {"color": "0.45", "ls": run_dash(i)}) for i, r, *_ in data]
             if len(data) > 1
             else []
         ),

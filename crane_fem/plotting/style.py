@@ -7,7 +7,8 @@ from typing import Any
 
 __all__ = ["DASHES", "figure_legend", "run_colour", "run_dash", "run_width", "save"]
 
-#: Line styles of the runs when colour means something else (energy terms, spectra points).
+#: Line styles of the runs when colour means something else (energy terms, spectra points);
+#: their legend entries are grey, apart from the black curves.
 DASHES = ["-", "--", ":", "-."]
 #: Colours of the runs when the line style means something else (wheel / rail side).
 _COLOURS = ["C0", "C3", "C2", "C4", "C1", "C5"]

@@ -17,7 +17,14 @@ import numpy.typing as npt
 from crane_fem.plotting.runs import Run, figure_title
 from crane_fem.plotting.style import figure_legend, run_colour, run_width, save
 
-__all__ = ["WHEEL_RTOL", "force_figure", "group_label", "group_wheels", "pair_figure", "wheels"]
+__all__ = [
+    "WHEEL_RTOL",
+    "force_figure",
+    "group_label",
+    "group_wheels",
+    "pair_figure",
+    "wheel_numbers",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -28,7 +35,7 @@ FloatArray = npt.NDArray[np.float64]
 WHEEL_RTOL = 0.01
 
 
-def wheels(run: Run) -> list[int]:
+def wheel_numbers(run: Run) -> list[int]:
     """The wheel numbers with probed contact node pairs in the run's history."""
     return [k for k in range(1, 5) if f"wheel{k}_wheel_uz" in run.history]
 
@@ -64,14 +71,14 @@ def group_label(group: list[int], rtol: float = WHEEL_RTOL) -> str:
     """``wheel 2``, ``wheels 1–4 (identical within 1 %)``, ``wheels 1, 3 (…)``."""
     if len(group) == 1:
         return f"wheel {group[0]}"
-    consecutive = group == list(range(group[0], group[-1] + 1))
+    consecutive = len(group) > 2 and group == list(range(group[0], group[-1] + 1))
     names = f"{group[0]}–{group[-1]}" if consecutive else ", ".join(map(str, group))
     return f"wheels {names} (identical within {100 * rtol:g} %)"
 
 
 def _groups(runs: list[Run], columns: Callable[[int], list[str]]) -> list[list[int]]:
     """Wheel groups over every run, comparing the named columns of each wheel."""
-    ks = sorted(set().union(*(wheels(r) for r in runs)))
+    ks = sorted(set().union(*(wheel_numbers(r) for r in runs)))
     series = {
         k: np.concatenate([r.history[c] for r in runs for c in columns(k) if c in r.history])
         for k in ks
