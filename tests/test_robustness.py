@@ -1,0 +1,418 @@
+"""What a new user runs into (issue 17, robustness): bad input ends with one line naming the key
+or the file, on every rank, exit code 2, before any work; `check` refuses what `run` refuses
+and says what will run; mesh files, record files, output directories and launchers are
+checked."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+from conftest import COMM, mpiexec_env
+
+from crane_fem import _compat
+from crane_fem.cli import main
+from crane_fem.errors import ScenarioError
+from crane_fem.io import prepare_output_dir
+from crane_fem.loading import read_at2, read_csv
+from crane_fem.scenario import apply_unsets, load_scenario
+
+ROOT = Path(__file__).parent.parent
+DEMOS = ROOT / "demos"
+QUICK = DEMOS / "crane_quick.toml"
+BAR = DEMOS / "bar_impact.toml"
+MESH = ROOT / "meshes" / "crane.msh"
+BIN = Path(sys.executable).parent
+AT2_HEAD = (
+    "# a comment line: counted in the line numbers\nPEER\nRSN0\n"
+    "ACCELERATION TIME SERIES IN UNITS OF G\nNPTS=   6, DT=   .0100 SEC\n"
+)
+
+
+def _unwritable(tmp: Path) -> Path | None:
+    """A directory path that cannot be created: under a read-only directory, or (root passes
+    permission bits) under /sys."""
+    if os.geteuid() != 0:
+        ro = tmp / "read_only"
+        ro.mkdir()
+        ro.chmod(0o500)
+        return ro / "out"
+    path = Path("/sys/crane_fem_test_out")
+    try:
+        path.mkdir()
+    except OSError:
+        return path
+    path.rmdir()
+    return None
+
+
+def _cases(tmp: Path) -> dict[str, tuple[list[str], list[str]]]:
+    """Bad inputs of the crane scene: (crane-fem arguments, fragments of the one line)."""
+    nan_csv = tmp / "nan_record.csv"
+    nan_csv.write_text("t, a\n0.0, 0.0\n0.01, nan\n0.02, 0.0\n")
+    as_file = tmp / "a_file"
+    as_file.write_text("not a directory\n")
+    bare = tmp / "bare.msh"  # the committed mesh without its sidecar
+    shutil.copy(MESH, bare)
+    q = str(QUICK)
+    cases = {
+        "mesh_keys": (["check", q, "--set", "model.size=0.1"], ["model.size = 0.1", "crane.msh"]),
+        "no_mesh": (["check", q, "--set", "model.mesh='nope.msh'"], ["model.mesh", "nope.msh"]),
+        "no_sidecar": (
+            ["check", q, "--set", f"model.mesh='{bare}'"],
+            ["model.mesh", "bare.msh", "bare.json", "crane-fem mesh"],
+        ),
+        "no_record": (
+            ["check", q, "--set", "loading.ground_motion={record='missing.AT2'}"],
+            [str(DEMOS / "missing.AT2"), "not found"],
+        ),
+        "unknown_record": (
+            ["check", q, "--set", "loading.ground_motion={record='el_centro_1941'}"],
+            ["loading.ground_motion.record", "el_centro_1941", "bundled"],
+        ),
+        "nan_record": (
+            ["check", q, "--set", f"loading.ground_motion={{record='{nan_csv}'}}"],
+            [f"{nan_csv}: line 3", "not a finite number"],
+        ),
+        "window": (
+            ["check", q, "--set", "loading.ground_motion={record='el_centro_1940_up', start=99.0}"],
+            ["loading.ground_motion.start"],
+        ),
+        "dt_factor": (
+            ["check", q, "--set", "time.dt_factor=1.5"],
+            ["time.dt_factor = 1.5", "critical step"],
+        ),
+        "union_value": (
+            ["check", q, "--set", "loading.ground_motion.seed='x'"],
+            ["loading.ground_motion.seed: Input should be a valid integer (got 'x')"],
+        ),
+        "unset_unknown": (["check", q, "--unset", "model.nope"], ["--unset model.nope"]),
+        "method": (
+            ["check", q, "--set", "coupling.method='zz'"],
+            ["coupling.method", "'gc-mean' or 'monolithic' (got 'zz')"],
+        ),
+        "no_scenario": (["check", str(tmp / "nope.toml")], ["nope.toml", "not found"]),
+        "outdir_file": (["run", q, "-o", str(as_file)], [f"output directory {as_file} is a file"]),
+    }
+    unwritable = _unwritable(tmp)
+    if unwritable is not None:
+        cases["outdir_unwritable"] = (["run", q, "-o", str(unwritable)], [str(unwritable)])
+    return cases
+
+
+def _spawn(args: list[str]) -> subprocess.CompletedProcess[str]:
+    cmd = [str(BIN / "mpiexec"), "-n", "2", str(BIN / "crane-fem"), *args]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=120, env=mpiexec_env())
+
+
+@pytest.fixture(scope="module")
+def mpiexec_errors(tmp_path_factory):
+    """Every bad input under `mpiexec -n 2`, three jobs at a time (most end in a second)."""
+    tmp = tmp_path_factory.mktemp("bad_inputs")
+    cases = _cases(tmp)
+    with ThreadPoolExecutor(max_workers=3) as pool:
+        done = dict(zip(cases, pool.map(_spawn, [a for a, _ in cases.values()]), strict=True))
+    yield {name: (done[name], fragments) for name, (_, fragments) in cases.items()}
+    for ro in tmp.glob("read_only"):
+        ro.chmod(0o700)
+
+
+@pytest.mark.serial
+def test_bad_inputs_one_line_on_every_rank_under_mpiexec(mpiexec_errors) -> None:
+    """At least ten bad inputs of the crane scene: each ends with exit code 2 and the same one
+    line on each of the two ranks, naming the key or the file, no traceback, no hang (a
+    timeout would raise)."""
+    assert len(mpiexec_errors) >= 10
+    for name, (res, fragments) in mpiexec_errors.items():
+        lines = res.stderr.strip().splitlines()
+        assert res.returncode == 2, (name, res.returncode, res.stderr)
+        assert len(lines) == 2 and lines[0] == lines[1], (name, res.stderr)
+        assert lines[0].startswith("crane-fem: error: "), (name, lines[0])
+        assert "Traceback" not in res.stderr and res.stdout == "", (name, res.stdout)
+        for f in fragments:
+            assert f in lines[0], (name, f, lines[0])
+        assert "more problem" not in lines[0] and "[also" not in lines[0], (name, lines[0])
+
+
+def test_check_names_what_will_run(capsys) -> None:
+    """`check` builds the subdomains to find Δt and names the schemes that run where."""
+    assert main(["check", str(QUICK)]) == 0
+    out = capsys.readouterr().out
+    if COMM.rank == 0:
+        assert (
+            "ok (crane; gc, m = 100: cd-lagrange on contact_zones, newmark on structure; "
+            "Δt = 1.3026e-06 s (0.9× critical 1.4473e-06 s))"
+        ) in out, out
+    assert main(["check", str(QUICK), "--set", "coupling.method='monolithic'"]) == 0
+    out = capsys.readouterr().out
+    if COMM.rank == 0:
+        assert "ok (crane; monolithic cd-lagrange; Δt = " in out, out
+    assert main(["check", str(BAR)]) == 0
+    out = capsys.readouterr().out
+    if COMM.rank == 0:
+        assert "ok (bar; cd-lagrange; Δt = 8.6726e-07 s (0.9× critical 9.6362e-07 s))" in out
+
+
+def test_committed_mesh_is_what_crane_fem_mesh_writes(tmp_path) -> None:
+    """`crane-fem mesh` of the quick scene's keys writes the committed mesh byte for byte, and
+    the committed sidecar beside it (--unset works on `mesh` too: model.mesh is not needed)."""
+    if COMM.rank != 0:
+        return
+    path = tmp_path / "crane.msh"
+    assert main(["mesh", str(QUICK), "-o", str(path), "--unset", "model.mesh"]) == 0
+    assert path.read_bytes() == MESH.read_bytes()
+    assert json.loads(path.with_suffix(".json").read_text()) == json.loads(
+        MESH.with_suffix(".json").read_text()
+    )
+
+
+def test_geometry_keys_checked_against_the_mesh(tmp_path) -> None:
+    """Keys given must be the mesh's; keys left out take the mesh's values; a mesh without a
+    sidecar is taken as it is only without geometry keys."""
+    mesh = tmp_path / "m.msh"
+    shutil.copy(MESH, mesh)
+    side = json.loads(MESH.with_suffix(".json").read_text())
+    side["geometry"]["zone_margin"] = 0.07
+    mesh.with_suffix(".json").write_text(json.dumps(side))
+    sc = load_scenario(QUICK, [f"model.mesh='{mesh}'"])
+    assert sc.model.zone_margin == 0.07 and sc.model.size == 0.12
+    with pytest.raises(ScenarioError, match=r"model.zone_margin = 0.06 disagrees .* 0.07"):
+        load_scenario(QUICK, [f"model.mesh='{mesh}'", "model.zone_margin=0.06"])
+    mesh.with_suffix(".json").unlink()
+    with pytest.raises(ScenarioError, match=r"model\.size, model\.fine cannot be checked"):
+        load_scenario(QUICK, [f"model.mesh='{mesh}'"])
+    sc = load_scenario(QUICK, [f"model.mesh='{mesh}'"], ["model.size", "model.fine"])
+    assert sc.model.mesh == str(mesh)
+    # `crane-fem mesh` writes the mesh from the keys: the old mesh does not constrain them.
+    sc = load_scenario(QUICK, ["model.size=0.1"], read_mesh=False)
+    assert sc.model.size == 0.1
+
+
+def test_prepare_output_dir(shared_tmp) -> None:
+    """Created if missing; a file is refused on every rank; with restart, kept as it is."""
+    out = shared_tmp / "a" / "b"
+    assert prepare_output_dir(out, COMM, restart=False) == []
+    assert out.is_dir()
+    blocker = shared_tmp / "file"
+    if COMM.rank == 0:
+        blocker.write_text("x")
+    COMM.barrier()
+    with pytest.raises(ScenarioError, match="is a file, not a directory"):
+        prepare_output_dir(blocker, COMM, restart=False)
+    with pytest.raises(ScenarioError, match=r"--restart .*: no such directory"):
+        prepare_output_dir(shared_tmp / "none", COMM, restart=True)
+
+
+STALE = [
+    "solution_structure.xdmf",
+    "solution_structure.h5",
+    "spectra.csv",
+    "results.csv",
+    "history.csv",
+    "summary.json",
+]
+
+
+def _make_stale(out: Path) -> None:
+    if COMM.rank == 0:
+        for d in ("checkpoint", "figures"):
+            (out / d).mkdir(parents=True, exist_ok=True)
+            (out / d / "x").write_text("old")
+        for name in [*STALE, "notes.txt"]:
+            (out / name).write_text("old")
+    COMM.barrier()
+
+
+def test_stale_outputs_removed_unless_restart(shared_tmp, capsys) -> None:
+    """An earlier run's outputs are removed before a run (said in one line), other files are
+    kept; with --restart the directory is the run's own and nothing is removed."""
+    out = shared_tmp / "run"
+    _make_stale(out)
+    args = ["run", str(BAR), "-o", str(out), "--set", "time.end=1e-5", "--no-progress"]
+    assert main(args) == 0
+    said = capsys.readouterr().out
+    if COMM.rank == 0:
+        line = next(ln for ln in said.splitlines() if "removed" in ln)
+        assert f"removed the outputs of an earlier run in {out}/" in line
+        for name in ["solution_structure.xdmf", "checkpoint/", "figures/", "spectra.csv"]:
+            assert name in line, (name, line)
+    assert (out / "notes.txt").exists() and not (out / "checkpoint").exists()
+    assert not (out / "solution_structure.h5").exists() and (out / "solution.xdmf").exists()
+    COMM.barrier()
+    _make_stale(out)
+    # The bar path has no checkpoints: the driver refuses, after the directory was kept.
+    assert main(["run", str(BAR), "--restart", str(out)]) == 2
+    assert "checkpoints are written by scenes with subdomains" in capsys.readouterr().err
+    assert all((out / n).exists() for n in [*STALE, "checkpoint/x", "figures/x"])
+
+
+def test_restart_reaches_the_driver(shared_tmp, monkeypatch, capsys) -> None:
+    """--restart OUTDIR: the run continues into OUTDIR, or into -o's directory."""
+    seen: list[tuple[Path, object]] = []
+
+    def fake_run(sc, outdir, comm, progress=None, restart=None):
+        seen.append((Path(outdir), restart))
+        raise ScenarioError("stopped by the test")
+
+    monkeypatch.setattr("crane_fem.driver.run_scenario", fake_run)
+    prev = shared_tmp / "prev"
+    _make_stale(prev)
+    assert main(["run", str(QUICK), "--restart", str(prev)]) == 2
+    assert seen[-1] == (prev, prev)
+    assert (prev / "history.csv").exists()
+    assert main(["run", str(QUICK), "--restart", str(prev), "-o", str(shared_tmp / "new")]) == 2
+    assert seen[-1] == (shared_tmp / "new", prev)
+    assert "stopped by the test" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("body", "fragment"),
+    [
+        (AT2_HEAD + "0.1 0.2 0.3\n0.4 NaN 0.6\n", "line 7: 'NaN' is not a finite number"),
+        (AT2_HEAD + "0.1 0.2 inf\n0.4 0.5 0.6\n", "line 6: 'inf' is not a finite number"),
+        (AT2_HEAD + "0.1 0.2 0.3\n0.4 0.5 x\n", "line 7: 'x' is not a number"),
+        (AT2_HEAD.replace(".0100", "1e999") + "0.1\n", "line 5: DT must be a positive finite"),
+    ],
+)
+def test_nan_or_inf_in_an_at2_record(tmp_path, body, fragment) -> None:
+    """A value that is not a finite number: an input error naming the file and the line."""
+    path = tmp_path / "rec.AT2"
+    path.write_text(body)
+    with pytest.raises(ScenarioError) as exc:
+        read_at2(path)
+    assert str(exc.value).startswith(f"{path}: {fragment}"), str(exc.value)
+
+
+def test_nan_or_inf_in_a_csv_record(tmp_path) -> None:
+    path = tmp_path / "rec.csv"
+    for bad, line in (("nan", 3), ("-inf", 3), ("1e400", 3)):
+        path.write_text(f"t, a\n0.0, 0.0\n0.01, {bad}\n0.02, 0.0\n")
+        with pytest.raises(ScenarioError, match=f"{path}: line {line}: .* not a finite number"):
+            read_csv(path)
+    path.write_text("t, a\n0.0, 0.0\n0.01, 1.0\n")
+    assert read_csv(path).pga == 1.0
+
+
+def test_unset_keys() -> None:
+    """--unset removes a key (a number indexes an array of tables); a key not there is an
+    error naming it."""
+    data = {"a": {"b": 1, "c": 2}, "s": [{"m": 1}, {"m": 2}]}
+    apply_unsets(data, ["a.b", "s.1.m"])
+    assert data == {"a": {"c": 2}, "s": [{"m": 1}, {}]}
+    for key in ("a.b", "a.c.d", "s.2.m", "x"):
+        with pytest.raises(ScenarioError, match=f"--unset {key}: no key"):
+            apply_unsets(data, [key])
+
+
+def test_unset_switches_a_synthetic_record_to_a_file(shared_tmp, capsys) -> None:
+    """The quick scene's synthetic record replaced by a file: its synthetic-only keys unset."""
+    rec = shared_tmp / "rec.csv"
+    if COMM.rank == 0:
+        rec.write_text("t, a\n" + "".join(f"{0.001 * k}, {0.1 * (k % 7)}\n" for k in range(80)))
+    COMM.barrier()
+    switch = [f"loading.ground_motion.record='{rec}'"]
+    with pytest.raises(ScenarioError, match="pga and duration apply to record = 'synthetic'"):
+        load_scenario(QUICK, switch)
+    unset = ["--unset", "loading.ground_motion.pga", "--unset", "loading.ground_motion.duration"]
+    assert main(["check", str(QUICK), *unset, "--set", switch[0]]) == 0
+    assert "Traceback" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("overrides", "expected"),
+    [
+        (
+            ["loading.ground_motion.pga=-1.0"],
+            "loading.ground_motion.pga: Input should be greater than 0 (got -1.0)",
+        ),
+        (
+            ["loading.ground_motion=5"],
+            "loading.ground_motion: Input should be a table or an array of tables (got 5)",
+        ),
+        (
+            ["loading.ground_motion=[{record='synthetic', pga=1.0, duration='x'}]"],
+            "loading.ground_motion[0].duration: Input should be a valid number (got 'x')",
+        ),
+        (
+            ["output.progress='x'"],
+            "output.progress: Input should be a valid boolean or 'auto' (got 'x')",
+        ),
+        (
+            ["material.E=-1.0", "time.end=0.0"],
+            "material.E: Input should be greater than 0 (got -1.0) [also: time.end]",
+        ),
+    ],
+)
+def test_validation_names_the_real_problem(overrides, expected) -> None:
+    """A union (a table or an array of tables, a boolean or 'auto') reports the problem in the
+    branch the input was meant for, not the other branch's "should be a valid list"; other
+    distinct problems are named after [also: …]."""
+    with pytest.raises(ScenarioError) as exc:
+        load_scenario(QUICK, overrides)
+    msg = str(exc.value)
+    assert msg.endswith(expected), msg
+    assert "more problem" not in msg
+
+
+def test_record_paths_are_relative_to_the_scenario_file(tmp_path, monkeypatch) -> None:
+    """A record file is found beside the scenario, from whatever directory; a bundled name
+    stays a name."""
+    scene = tmp_path / "scenes" / "quick.toml"
+    scene.parent.mkdir()
+    scene.write_text(QUICK.read_text().replace('"../meshes/crane.msh"', f'"{MESH}"'))
+    (scene.parent / "rec.csv").write_text("t, a\n0.0, 0.0\n0.01, 1.0\n")
+    monkeypatch.chdir(tmp_path)
+    unset = ["loading.ground_motion.pga", "loading.ground_motion.duration"]
+    sc = load_scenario(scene, ["loading.ground_motion.record='rec.csv'"], unset)
+    assert sc.loading.ground_motions[0].record == str(scene.parent / "rec.csv")
+    sc = load_scenario(scene, ["loading.ground_motion.record='el_centro_1940_up'"], unset)
+    assert sc.loading.ground_motions[0].record == "el_centro_1940_up"
+    assert load_scenario(scene).model.mesh == str(MESH)
+
+
+def test_foreign_launcher_detected() -> None:
+    """Open MPI's or a PMIx launcher's variables, and a launcher size this MPI does not see."""
+    if _compat.mpi_family() != "MPICH":
+        pytest.skip("the refusal is MPICH's (the pip wheel this environment installs)")
+    env = {"OMPI_COMM_WORLD_SIZE": "2", "PMIX_RANK": "0"}
+    assert _compat.foreign_launcher(env) == "Open MPI: OMPI_COMM_WORLD_SIZE=2"
+    assert _compat.foreign_launcher({"PMIX_RANK": "1"}) == "PMIx: PMIX_RANK=1"
+    assert _compat.foreign_launcher({"PMI_SIZE": "2", "PMI_RANK": "0"}) is None
+    assert _compat.launcher_size_mismatch(1, {"PMI_SIZE": "2"}) == "PMI_SIZE=2"
+    assert _compat.launcher_size_mismatch(2, {"PMI_SIZE": "2"}) is None
+
+
+def _one_error_line_per_rank(res: subprocess.CompletedProcess[str], ranks: int) -> str:
+    lines = [ln for ln in res.stderr.splitlines() if ln.startswith("crane-fem: error: ")]
+    assert len(lines) == ranks and len(set(lines)) == 1, res.stderr
+    assert "Traceback" not in res.stderr
+    return lines[0]
+
+
+@pytest.mark.serial
+def test_foreign_launcher_refused_before_mpi_starts(tmp_path) -> None:
+    """Under Open MPI's launcher this MPICH would abort in MPI_Init with a page of internals:
+    crane-fem stops first with one line naming the launcher and the launcher to use. With the
+    system's Open MPI `mpirun` when there is one, else with its variables."""
+    env = {**mpiexec_env(), "OMPI_COMM_WORLD_SIZE": "2"}
+    cmd = [str(BIN / "crane-fem"), "check", str(QUICK)]
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=60, env=env, cwd=tmp_path)
+    assert res.returncode == 2, res.stderr
+    line = _one_error_line_per_rank(res, 1)
+    assert "foreign MPI launcher (Open MPI: OMPI_COMM_WORLD_SIZE=2)" in line
+    assert f"use {BIN / 'mpiexec'}" in line
+    mpirun = shutil.which("mpirun", path="/usr/bin:/usr/local/bin")
+    if mpirun is None:
+        return
+    version = subprocess.run([mpirun, "--version"], capture_output=True, text=True, timeout=30)
+    if "Open MPI" not in version.stdout + version.stderr:
+        return
+    env = {**mpiexec_env(), "OMPI_ALLOW_RUN_AS_ROOT": "1", "OMPI_ALLOW_RUN_AS_ROOT_CONFIRM": "1"}
+    cmd = [mpirun, "--oversubscribe", "-n", "2", *cmd]
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path)
+    assert res.returncode == 2, res.stderr
+    assert "foreign MPI launcher (Open MPI" in _one_error_line_per_rank(res, 2)
