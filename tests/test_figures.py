@@ -25,7 +25,7 @@ from crane_fem.plotting import (
     plot_outputs,
 )
 from crane_fem.plotting.motion import input_motion_figure
-from crane_fem.plotting.render import load_peak_frame, nice_top, render_runs
+from crane_fem.plotting.render import load_peak_frame, nice_range, render_runs
 from crane_fem.plotting.response_spectra import split_direction
 from crane_fem.plotting.runs import figure_title
 from crane_fem.plotting.wheels import WHEEL_RTOL, group_label
@@ -200,7 +200,9 @@ def test_incomplete_run_message_and_titles(tmp_path: Path) -> None:
     assert figure_title(runs, "contact forces") == (
         "crane_fake: contact forces (incomplete: x interrupted)"
     )
-    assert figure_title([x], "energy balance").endswith("(incomplete: interrupted)")
+    assert figure_title([x], "energy balance") == (
+        "crane_fake (x: fully explicit): energy balance (incomplete: interrupted)"
+    )
     figures = plot_figures(tmp_path)
     assert figures.warnings == [line]
     with pytest.warns(IncompleteRunWarning, match="run interrupted at t = 0.0731 s of 0.2 s"):
@@ -225,7 +227,10 @@ def test_nearest_frame() -> None:
     assert nearest_frame(times, -1.0) == 0 and nearest_frame(times, 9.0) == 3
     with pytest.raises(ValueError):
         nearest_frame([], 0.1)
-    assert nice_top(10.1) == 12.5 and nice_top(33.47) == 50.0 and nice_top(0.8) == 1.0
+    # Colour ranges: round steps, 4 to 10 intervals, a round top kept as it is.
+    assert nice_range(10.1) == (12.5, 5) and nice_range(33.47) == (35.0, 7)
+    assert nice_range(0.8) == (0.8, 4) and nice_range(35.0) == (35.0, 7)
+    assert nice_range(9.99) == (10.0, 5) and nice_range(0.0) == (1.0, 4)
 
 
 def _write_xdmf_run(path: Path, times: list[float], summary: dict[str, Any]) -> None:

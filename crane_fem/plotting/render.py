@@ -17,7 +17,7 @@ __all__ = [
     "XdmfFrames",
     "load_peak_frame",
     "nearest_frame",
-    "nice_top",
+    "nice_range",
     "render_peak",
     "render_runs",
 ]
@@ -181,7 +181,7 @@ def render_runs(runs: list[Run], figdir: Path) -> list[Path]:
     of the others, on one colour range (the largest frame maximum) so they compare."""
     frames = [(r, f) for r in runs if (f := load_peak_frame(r)) is not None]
     top = max((_vm_max(f) for _, f in frames), default=0.0)
-    clim = (0.0, nice_top(top / 1e6))
+    clim = (0.0, nice_range(top / 1e6)[0])
     return [
         _render(
             r,
@@ -194,15 +194,17 @@ def render_runs(runs: list[Run], figdir: Path) -> list[Path]:
     ]
 
 
-def nice_top(value: float, intervals: int = 5) -> float:
-    """The smallest ``intervals`` × step ≥ ``value`` with step 1, 2, 2.5 or 5 × 10ᵏ: a colour
-    range whose tick labels are round numbers."""
-    if value <= 0.0:
-        return 1.0
-    raw = value / intervals
+def nice_range(value: float) -> tuple[float, int]:
+    """A colour range [0, top] with round tick labels: the step is the largest 1, 2, 2.5 or
+    5 × 10ᵏ at most ``value``/4, and top the first multiple of it ≥ ``value`` (4 to 10
+    intervals, top within one step of ``value``). Returns (top, intervals)."""
+    if not value > 0.0:
+        return 1.0, 4
+    raw = value / 4
     power = 10.0 ** np.floor(np.log10(raw))
-    step = next(m * power for m in (1.0, 2.0, 2.5, 5.0, 10.0) if m * power >= raw * (1 - 1e-12))
-    return float(intervals * step)
+    step = max(m * power for m in (1.0, 2.0, 2.5, 5.0) if m * power <= raw * (1 + 1e-12))
+    n = int(np.ceil(value / step - 1e-9))
+    return n * step, n
 
 
 def _vm_max(frame: PeakFrame) -> float:
@@ -228,7 +230,7 @@ def _render(
     factor = warp if warp is not None else (0.05 * extent / u_max if u_max > 0 else 1.0)
     vm_max = _vm_max(frame)
     if clim is None:
-        clim = (0.0, nice_top(vm_max / 1e6))
+        clim = (0.0, nice_range(vm_max / 1e6)[0])
     # The colour bar in a renderer of its own, under the model: it cannot cover it.
     plotter = pv.Plotter(
         off_screen=True, window_size=[1600, 1000], shape=(2, 1), row_weights=[6, 1], border=False
@@ -279,7 +281,7 @@ def _render(
             height=0.6,
             title_font_size=22,
             label_font_size=28,
-            n_labels=6,
+            n_labels=nice_range(clim[1])[1] + 1,  # clim[1] is already round: labels on steps
             fmt="%g",
             color="black",
         )

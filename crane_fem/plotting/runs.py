@@ -136,7 +136,12 @@ def incomplete_tag(runs: list[Run]) -> str:
 
 
 def figure_title(runs: list[Run], what: str) -> str:
-    """A figure's title: the scenario name(s), what it shows, and the incomplete tag."""
+    """A figure's title: the scenario name(s) (and the run, if alone), what it shows, and the
+    incomplete tag."""
     names = sorted({str(r.summary["scenario"]) for r in runs if "scenario" in r.summary})
-    head = f"{', '.join(names)}: " if names else ""
-    return head + what + incomplete_tag(runs)
+    head = ", ".join(names)
+    if len(runs) == 1:  # the legend does not name a lone run: the title does
+        method = runs[0].method_label
+        run = f"{runs[0].path.name}: {method}" if method else runs[0].path.name
+        head = f"{head} ({run})" if head else run
+    return (f"{head}: " if head else "") + what + incomplete_tag(runs)

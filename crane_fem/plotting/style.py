@@ -24,7 +24,7 @@ def run_dash(i: int) -> str:
 
 def run_width(i: int) -> float:
     """The first run drawn wide and later ones thin on top: where runs agree, both show."""
-    return 2.2 if i == 0 else 1.0
+    return 1.8 if i == 0 else 0.9
 
 
 def figure_legend(fig: Any, entries: list[tuple[str, dict[str, Any]]]) -> None:

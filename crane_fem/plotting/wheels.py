@@ -113,23 +113,32 @@ def pair_figure(
         layout="constrained",
     )
     sides = (("wheel", "-"), ("rail", "--"))
+    one = len(runs) == 1  # one run: the sides by colour, as in the paper's figures
+
+    def colour(i: int, j: int) -> str:
+        return f"C{j}" if one else run_colour(i)
+
     for ax, group in zip(axes[:, 0], groups, strict=True):
         k = group[0]
         for i, run in enumerate(runs):
-            for side, dash in sides:
+            for j, (side, dash) in enumerate(sides):
                 col = f"wheel{k}_{side}_{quantity}"
                 if col in run.history:
                     y = scale * run.history[col]
-                    ax.plot(run.history["t"], y, dash, color=run_colour(i), lw=run_width(i))
+                    lw = 1.0 if one else run_width(i)
+                    ax.plot(run.history["t"], y, dash, color=colour(i, j), lw=lw)
         _mark_stops(ax, runs)
         ax.set_title(group_label(group), fontsize=9, loc="left")
         ax.set_ylabel(unit)
         ax.grid(alpha=0.3)
-    figure_legend(
-        fig,
-        [(r.label, {"color": run_colour(i), "lw": run_width(i)}) for i, r in enumerate(runs)]
-        + [(f"{side} node", {"color": "k", "ls": dash}) for side, dash in sides],
-    )
+    entries: list[tuple[str, dict[str, Any]]]
+    if one:
+        entries = [(f"{s} node", {"color": f"C{j}", "ls": d}) for j, (s, d) in enumerate(sides)]
+    else:
+        entries = [
+            (r.label, {"color": run_colour(i), "lw": run_width(i)}) for i, r in enumerate(runs)
+        ] + [(f"{side} node", {"color": "k", "ls": dash}) for side, dash in sides]
+    figure_legend(fig, entries)
     axes[-1, 0].set_xlabel("t (s)")
     return save(fig, path, figure_title(runs, what))
 
