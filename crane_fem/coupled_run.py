@@ -9,16 +9,20 @@ import time
 from pathlib import Path
 from typing import Any
 
+import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 
 from crane_fem.coupling import ENERGY_KEYS, MacroRecord
-from crane_fem.errors import ScenarioError, UnstableRunError
+from crane_fem.errors import RunInterrupted, ScenarioError, UnstableRunError
 from crane_fem.io import HistoryWriter, XDMFSeries
+from crane_fem.io.results import write_results_csv
 from crane_fem.peaks import ContactPeaks
 from crane_fem.pipeline import Simulation, create_simulation
-from crane_fem.run_record import RunResult, finish_summary, progress_bar
+from crane_fem.points import GroundAcceleration, PointMotions, default_points
+from crane_fem.reactions import SupportReactions
+from crane_fem.run_record import RunResult, StopRequest, finish_summary, progress_bar
 from crane_fem.scenario import Scenario
 from crane_fem.stability import EnergyGrowthMonitor
 from crane_fem.stress import VonMises
@@ -189,13 +193,80 @@ class BridgeStress:
         self.cells = np.flatnonzero(bridge[own]).astype(np.int32)
         self.comm = sim.mesh.comm
         self.peak, self.t_peak = 0.0, 0.0
+        self.location = np.zeros(3)
 
     def update(self, rec: MacroRecord) -> None:
         u = rec.implicit_u if self.side == "implicit" else rec.explicit_u
         assert u is not None
-        value = self.vm.peak(u, self.cells, self.comm)
+        value, where = self.vm.peak_at(u, self.cells, self.comm)
         if value > self.peak:
-            self.peak, self.t_peak = value, rec.t
+            self.peak, self.t_peak, self.location = value, rec.t, where
+
+
+def _support_reactions(sc: Scenario, sim: Simulation) -> SupportReactions | None:
+    """The reactions of the clamped faces, on the side that holds them (none without)."""
+    md = sim.models
+    for sub in (md.implicit, md.explicit):
+        if sub is None or sub.bs != 3:
+            continue
+        if sim.mesh.comm.allreduce(int(np.count_nonzero(sub.model.fixed)), op=MPI.SUM):
+            mat = sc.material
+            return SupportReactions(
+                sub, mat.E, mat.nu, mat.rho, mat.rayleigh_coefficients, sc.loading.gravity
+            )
+    return None
+
+
+def _point_motions(sc: Scenario, sim: Simulation) -> PointMotions | None:
+    """The absolute motions measured for response spectra (none without points)."""
+    points = default_points(sc)
+    if not points:
+        return None
+    mesh = sim.mesh.tagged.mesh
+    n_own = mesh.topology.index_map(0).size_local
+    local = np.arange(n_own, dtype=np.int32)
+    xyz = np.asarray(mesh.geometry.x)[dolfinx.mesh.entities_to_geometry(mesh, 0, local).ravel()]
+    ids = np.asarray(mesh.topology.index_map(0).local_to_global(local), dtype=np.int64)
+    md = sim.models
+    return PointMotions(
+        points, md.explicit, md.implicit, xyz, ids, GroundAcceleration(sc), sim.mesh.comm
+    )
+
+
+def _spectra(sc: Scenario, motions: PointMotions, out: Path, comm: MPI.Comm) -> dict[str, Any]:
+    """Pseudo-acceleration spectra of the input and of the points' absolute motion in each
+    direction the ground shakes, to ``spectra.csv`` (rank 0 writes); their settings."""
+    from crane_fem.spectra import log_periods, response_spectrum, write_spectra_csv
+
+    t, series = motions.series()
+    spec = sc.spectra
+    axes = [c for c in "xyz" if f"ground_a{c}" in series and np.any(series[f"ground_a{c}"])]
+    if t.size < 3 or not axes:
+        return {}
+    dt = float(t[1] - t[0])
+    # A last macro step shortened to reach time.end breaks the uniform sampling: left out.
+    odd = np.flatnonzero(np.abs(np.diff(t) - dt) > 1e-7 * dt)
+    if odd.size:
+        t, series = t[: odd[0] + 1], {k: v[: odd[0] + 1] for k, v in series.items()}
+    if t.size < 3:
+        return {}
+    # The mean accelerations between samples resolve periods down to a few samples.
+    periods = log_periods(max(spec.periods[0], 4 * dt), spec.periods[1], spec.count)
+    curves = {}
+    for c in axes:
+        curves[f"input_{c}"] = response_spectrum(t, series[f"ground_a{c}"], periods, spec.damping)
+        for p in motions.points:
+            a = series[f"{p.name}_a{c}"]
+            curves[f"{p.name}_{c}"] = response_spectrum(t, a, periods, spec.damping)
+    if comm.rank == 0:
+        write_spectra_csv(out / "spectra.csv", curves)
+    return {
+        "spectra_damping": spec.damping,
+        "spectra_sampling_s": dt,
+        "spectra_points": {
+            p.name: {"side": p.side, "distance_m": p.distance} for p in motions.points
+        },
+    }
 
 
 def _peak_tables(peaks: ContactPeaks) -> dict[str, Any]:
@@ -275,18 +346,23 @@ def run_coupled(
     md, it = sim.models, sim.integrators
     method = it.method
     rows = HistoryRows(sim)
-    columns = rows.columns
+    stress = BridgeStress(sim) if sim.mesh.crane is not None else None
+    reactions = _support_reactions(sc, sim) if sim.mesh.crane is not None else None
+    motions = _point_motions(sc, sim)
+    ground = GroundAcceleration(sc)
+    columns = rows.columns + (motions.columns if motions is not None else [])
+    point_row: dict[str, float] = {}
     history: dict[str, list[float]] = {c: [] for c in columns}
     every = sc.output.every
     xdmf_every = sc.output.xdmf_every or max(1, md.n_macro // 200)
     summary = _summary_head(sc, sim, comm)
     writers = _xdmf_writers(sc, sim, out)
-    stress = BridgeStress(sim) if sim.mesh.crane is not None else None
     bar = progress_bar(sc, comm, progress, md.n_macro, "macro step")
     micro_t: list[FloatArray] = []
     micro_active: list[npt.NDArray[np.bool_]] = []
     contacts = sim.constraints.contacts
-    peaks = ContactPeaks(contacts.group_names, md.dt)
+    static = md.preload.wheel_force if md.preload is not None else None
+    peaks = ContactPeaks(contacts.group_names, md.dt, static)
     total0: float | None = None
     scale = max_drift = 0.0
     ifd_min_step = math.inf
@@ -296,8 +372,9 @@ def run_coupled(
     t_loop = time.perf_counter()
     summary["wall_time_setup_s"] = comm.allreduce(t_loop - t_wall, op=MPI.MAX)
     t_output = 0.0
+    stop = StopRequest(comm)
     try:
-        with HistoryWriter(out / "history.csv", columns, comm) as writer:
+        with stop, HistoryWriter(out / "history.csv", columns, comm) as writer:
             rec = method.initialize(it.interface_force0)
             n = 0
             while True:
@@ -323,15 +400,30 @@ def run_coupled(
                 if comm.size > 1:
                     comm.Barrier()
                 t_out = time.perf_counter()
-                if rec.step % every == 0 or rec.step == md.n_macro:
+                stopping = stop.requested()
+                last = rec.step == md.n_macro or stopping
+                # The implicit side's fields (a reduced side expands them) at this cadence.
+                sampled = rec.step % sc.output.stress_every == 0
+                if motions is not None and sampled:
+                    need = motions.needs_implicit
+                    point_row = motions.sample(
+                        rec.t, rec.explicit_v, rec.implicit_v if need else None
+                    )
+                if stress is not None and (sampled or last):
+                    stress.update(rec)
+                if reactions is not None and sampled:
+                    on_i = md.implicit is not None and reactions.subdomain == md.implicit.name
+                    u = rec.implicit_u if on_i else rec.explicit_u
+                    v = rec.implicit_v if on_i else rec.explicit_v
+                    assert u is not None and v is not None
+                    reactions.update(rec.t, u, v, ground(rec.t))
+                if rec.step % every == 0 or last:
                     row = rows.row(rec)
+                    row.update(point_row)
                     writer.write(row)
                     for c in columns:
                         history[c].append(row[c])
-                last = rec.step == md.n_macro
                 frame = rec.step % xdmf_every == 0 or last
-                if stress is not None and (rec.step % sc.output.stress_every == 0 or last):
-                    stress.update(rec)
                 if writers and frame:
                     for sub, w in writers:
                         is_e = sub is md.explicit
@@ -348,6 +440,11 @@ def run_coupled(
                 if comm.size > 1:
                     comm.Barrier()
                 t_output += time.perf_counter() - t_out
+                if stopping:
+                    raise RunInterrupted(
+                        f"interrupted by {stop.signal_name} at t = {rec.t:.6g} s "
+                        f"(macro step {rec.step} of {md.n_macro}); the files hold the steps done"
+                    )
                 if n == md.n_macro:
                     break
                 rec = method.step()
@@ -356,6 +453,10 @@ def run_coupled(
         summary["status"] = "completed"
     except UnstableRunError as exc:
         summary["status"] = "unstable"
+        summary["diagnosis"] = str(exc)
+        raise
+    except RunInterrupted as exc:
+        summary["status"] = "interrupted"
         summary["diagnosis"] = str(exc)
         raise
     except KeyboardInterrupt:
@@ -375,10 +476,20 @@ def run_coupled(
             ifd_min_step if math.isfinite(ifd_min_step) else 0.0
         )
         summary.update(method.summary())
+        summary["t_reached_s"] = history["t"][-1] if history["t"] else 0.0
+        summary["time_end_s"] = sc.time.end
         if stress is not None:  # every output.stress_every macro steps
             summary["peak_bridge_von_mises_Pa"] = stress.peak
             summary["peak_bridge_von_mises_t"] = stress.t_peak
+            summary["peak_bridge_von_mises_location_m"] = stress.location.tolist()
         summary.update(_peak_tables(peaks))
+        if reactions is not None:
+            summary["supports"] = reactions.table()
+            reactions.destroy()
+        if motions is not None:
+            summary.update(_spectra(sc, motions, out, comm))
+        if comm.rank == 0:
+            write_results_csv(out / "results.csv", summary)
         times = np.concatenate(micro_t) if micro_t else np.zeros(0)
         active = np.concatenate(micro_active) if micro_active else np.zeros(0, dtype=bool)
         finish_summary(summary, out, comm, t_wall, times, active, max_drift, scale)

@@ -18,12 +18,13 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from crane_fem.energy import BALANCE_TERMS
-from crane_fem.errors import ScenarioError, UnstableRunError
+from crane_fem.errors import RunInterrupted, ScenarioError, UnstableRunError
 from crane_fem.integrators import CDLagrange, CDPenalty, MoreauJean, StepRecord, TimeIntegrator
 from crane_fem.io import HistoryWriter, XDMFSeries
+from crane_fem.io.results import write_results_csv
 from crane_fem.peaks import ContactPeaks
 from crane_fem.problems import Problem, create_problem
-from crane_fem.run_record import RunResult, finish_summary, progress_bar
+from crane_fem.run_record import RunResult, StopRequest, finish_summary, progress_bar
 from crane_fem.scenario import Scenario
 from crane_fem.stability import EnergyGrowthMonitor, critical_time_step, max_frequency
 
@@ -163,9 +164,12 @@ def run_scenario(
         else None
     )
     bar = progress_bar(sc, comm, progress, sim.n_steps, "step")
+    stop = StopRequest(comm)
     try:
-        with HistoryWriter(out / "history.csv", columns, comm) as writer:
+        with stop, HistoryWriter(out / "history.csv", columns, comm) as writer:
             for rec in sim.records():
+                # A signal is looked for every 64 steps (a collective under MPI).
+                stopping = rec.step % 64 == 0 and rec.step > 0 and stop.requested()
                 en = rec.energy
                 total = en.total
                 if total0 is None:
@@ -180,7 +184,7 @@ def run_scenario(
                     contacts.group_sums(rec.impulse)[None, :],
                     contacts.group_mins(rec.gaps)[None, :],
                 )
-                if rec.step % every == 0 or rec.step == sim.n_steps:
+                if rec.step % every == 0 or rec.step == sim.n_steps or stopping:
                     row = {"t": rec.t, **en.as_dict()}
                     row["contact_force"] = float(force.sum())
                     row["active_contacts"] = float(np.count_nonzero(rec.impulse > 0.0))
@@ -206,7 +210,16 @@ def run_scenario(
                         },
                     )
                 bar.update(1 if rec.step > 0 else 0)
+                if stopping:
+                    raise RunInterrupted(
+                        f"interrupted by {stop.signal_name} at t = {rec.t:.6g} s "
+                        f"(step {rec.step} of {sim.n_steps}); the files hold the steps done"
+                    )
         summary["status"] = "completed"
+    except RunInterrupted as exc:
+        summary["status"] = "interrupted"
+        summary["diagnosis"] = str(exc)
+        raise
     except UnstableRunError as exc:
         summary["status"] = "unstable"
         summary["diagnosis"] = str(exc)
@@ -216,8 +229,12 @@ def run_scenario(
         if xdmf is not None:
             xdmf.close()
         summary["steps_done"] = len(times) - 1
+        summary["t_reached_s"] = times[-1] if times else 0.0
+        summary["time_end_s"] = sc.time.end
         if groups:  # every step's peaks, whatever output.every
             summary["contact_groups"] = peaks.table()
+        if comm.rank == 0:
+            write_results_csv(out / "results.csv", summary)
         finish_summary(summary, out, comm, t_wall, times, active, max_drift, scale)
         sim.destroy()
         comm.barrier()

@@ -1,6 +1,6 @@
 """Exceptions raised by crane_fem with a one-line, user-facing message."""
 
-__all__ = ["CraneFemError", "ScenarioError", "UnstableRunError"]
+__all__ = ["CraneFemError", "RunInterrupted", "ScenarioError", "UnstableRunError"]
 
 
 class CraneFemError(Exception):
@@ -13,3 +13,7 @@ class ScenarioError(CraneFemError):
 
 class UnstableRunError(CraneFemError):
     """A time integration diverged; the message says where, when and Δt versus its limit."""
+
+
+class RunInterrupted(CraneFemError):
+    """SIGINT or SIGTERM stopped a run at a macro step; its files hold the steps done."""

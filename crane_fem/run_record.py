@@ -17,7 +17,7 @@ from tqdm import tqdm
 from crane_fem.io import write_summary
 from crane_fem.scenario import Scenario
 
-__all__ = ["RunResult", "finish_summary", "progress_bar"]
+__all__ = ["RunResult", "StopRequest", "finish_summary", "progress_bar"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -69,3 +69,52 @@ def _contact_intervals(
     on = np.asarray(active, dtype=bool)
     edges = np.flatnonzero(np.diff(np.r_[np.int8(0), on.astype(np.int8), np.int8(0)]))
     return [(float(t[a]), float(t[b - 1])) for a, b in zip(edges[::2], edges[1::2], strict=True)]
+
+
+class StopRequest:
+    """SIGINT and SIGTERM, turned into a request that every rank sees at the same macro step
+    (a context manager: the handlers are installed inside it only).
+
+    A signal only sets a flag; :meth:`requested` (collective: one small allreduce under MPI)
+    tells every rank whether any rank received one, so that all stop at the same step
+    boundary, with no rank left waiting in a collective the others never reach.
+    """
+
+    def __init__(self, comm: MPI.Comm) -> None:
+        self.comm = comm
+        self.signal_name = ""
+        self._flag = 0
+        self._old: dict[int, Any] = {}
+
+    def _handler(self, signum: int, frame: Any) -> None:
+        import signal
+
+        self._flag = int(signum)
+        self.signal_name = signal.Signals(signum).name
+
+    def __enter__(self) -> StopRequest:
+        import signal
+        import threading
+
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self._old[sig] = signal.signal(sig, self._handler)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        import signal
+
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        self._old.clear()
+
+    def requested(self) -> bool:
+        """Whether a signal reached any rank (collective)."""
+        flag = self._flag
+        if self.comm.size > 1:
+            flag = int(self.comm.allreduce(flag, op=MPI.MAX))
+        if flag and not self.signal_name:
+            import signal
+
+            self.signal_name = signal.Signals(flag).name
+        return bool(flag)

@@ -48,3 +48,20 @@ class VonMises:
         """The largest σ_vm over the owned ``cells`` of all ranks (collective)."""
         local = float(np.max(self.evaluate(u)[cells], initial=0.0))
         return float(comm.allreduce(local, op=MPI.MAX))
+
+    def peak_at(
+        self, u: FloatArray, cells: npt.NDArray[np.int32], comm: MPI.Comm
+    ) -> tuple[float, FloatArray]:
+        """The largest σ_vm over the owned ``cells`` of all ranks and the centre of its cell
+        (m; the lowest rank's on a tie) (collective)."""
+        vm = self.evaluate(u)[cells]
+        where = np.zeros(3)
+        value = 0.0
+        if vm.size:
+            k = int(np.argmax(vm))
+            value = float(vm[k])
+            mesh = self.field.function_space.mesh
+            mid = dolfinx.mesh.compute_midpoints(mesh, mesh.topology.dim, cells[k : k + 1])
+            where[: mid.shape[1]] = mid[0]
+        best = max(comm.allgather((value, -comm.rank, where.tolist())))
+        return best[0], np.asarray(best[2])

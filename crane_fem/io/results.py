@@ -1,0 +1,89 @@
+"""The results table of a run: the peaks an engineer reads (wheels, impacts, bridge stress,
+supports) as ``results.csv`` and as lines to print, from the summary."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from typing import Any
+
+__all__ = ["results_lines", "results_rows", "write_results_csv"]
+
+COLUMNS = ["quantity", "where", "value", "unit", "time_s", "x_m", "y_m", "z_m"]
+
+
+def results_rows(summary: dict[str, Any]) -> list[dict[str, Any]]:
+    """One row per reported peak (global values; not collective)."""
+    rows: list[dict[str, Any]] = []
+
+    def add(q: str, where: str, value: float, unit: str, t: float | None = None, at=None) -> None:
+        xyz = list(at) if at is not None else [None, None, None]
+        rows.append(dict(zip(COLUMNS, [q, where, value, unit, t, *xyz], strict=True)))
+
+    groups = summary.get("wheels") or summary.get("contact_groups") or {}
+    label = "wheel" if "wheels" in summary else "contact"
+    for name, w in groups.items():
+        where = f"{label} {name}"
+        add("peak_contact_force", where, w["peak_force_N"], "N", w["peak_force_time_s"])
+        add("max_uplift", where, w["max_uplift_m"], "m")
+        add("lift_offs", where, w["lift_offs"]["count"], "count")
+        for k, imp in enumerate(w.get("impacts", []), start=1):
+            add(f"impact_{k}_impulse", where, imp["impulse_Ns"], "N s", imp["t_s"])
+            add(f"impact_{k}_peak_force", where, imp["peak_force_N"], "N", imp["t_s"])
+    if "peak_bridge_von_mises_Pa" in summary:
+        add(
+            "peak_von_mises",
+            "bridge",
+            summary["peak_bridge_von_mises_Pa"],
+            "Pa",
+            summary["peak_bridge_von_mises_t"],
+            summary.get("peak_bridge_von_mises_location_m"),
+        )
+    for name, s in summary.get("supports", {}).items():
+        where = f"support {name}"
+        c = s["centre_m"]
+        add("peak_support_force", where, s["peak_force_N"], "N", s["peak_force_time_s"], c)
+        add("peak_support_vertical", where, s["peak_vertical_N"], "N", s["peak_vertical_time_s"], c)
+    return rows
+
+
+def write_results_csv(path: str | Path, summary: dict[str, Any]) -> None:
+    """Write :func:`results_rows` as CSV (rank 0 only: not collective)."""
+    with open(path, "w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=COLUMNS)
+        writer.writeheader()
+        for row in results_rows(summary):
+            writer.writerow({k: ("" if v is None else v) for k, v in row.items()})
+
+
+def results_lines(summary: dict[str, Any]) -> list[str]:
+    """The table in a few lines to print at the end of a run."""
+    lines: list[str] = []
+    groups = summary.get("wheels") or summary.get("contact_groups") or {}
+    if groups:
+        label = "wheel" if "wheels" in summary else "contact"
+        lines.append(
+            f"{label:>8}  peak force (kN)  at t (s)  uplift (mm)  lift-offs  impacts  "
+            "largest impulse (N s)"
+        )
+        for name, w in groups.items():
+            imps = w.get("impacts", [])
+            big = max((i["impulse_Ns"] for i in imps), default=0.0)
+            lines.append(
+                f"{name:>8}  {w['peak_force_N'] / 1e3:15.3f}  {w['peak_force_time_s']:8.5f}  "
+                f"{w['max_uplift_m'] * 1e3:11.3f}  {w['lift_offs']['count']:9d}  "
+                f"{len(imps):7d}  {big:21.4g}"
+            )
+    if "peak_bridge_von_mises_Pa" in summary:
+        loc = summary.get("peak_bridge_von_mises_location_m")
+        at = f" at ({', '.join(f'{x:.3f}' for x in loc)}) m" if loc else ""
+        lines.append(
+            f"bridge peak von Mises {summary['peak_bridge_von_mises_Pa'] / 1e6:.2f} MPa{at}, "
+            f"t = {summary['peak_bridge_von_mises_t']:.5f} s"
+        )
+    for name, s in summary.get("supports", {}).items():
+        lines.append(
+            f"support {name}: peak force {s['peak_force_N'] / 1e3:.3f} kN at "
+            f"t = {s['peak_force_time_s']:.5f} s (vertical {s['peak_vertical_N'] / 1e3:.3f} kN)"
+        )
+    return lines

@@ -1,0 +1,185 @@
+"""The motion the run measures for response spectra: the input ground acceleration vector and
+the absolute acceleration at named points of the structure (in-structure, or floor, motion).
+
+A point is the mesh vertex nearest the given coordinates, read on the explicit side when that
+side holds it (its velocity is that of the micro steps' end), else on the implicit side. Its
+acceleration between two samples is the mean one, Δv / Δt, plus the ground's mean
+acceleration over the interval: the relative formulation's motion is relative to the ground.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+
+from crane_fem.loading.body import GroundMotionHistory
+from crane_fem.scenario import CraneModel, Scenario
+from crane_fem.subdomains import Subdomain
+
+__all__ = ["GroundAcceleration", "PointMotions", "default_points"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+class GroundAcceleration:
+    """a_g(t) as a vector (m/s²): the sum of the scenario's ground motions along their
+    directions (not collective)."""
+
+    def __init__(self, sc: Scenario) -> None:
+        from crane_fem.pipeline.loads import ground_motion
+
+        self.parts: list[tuple[GroundMotionHistory, FloatArray]] = []
+        for gm in sc.loading.ground_motions:
+            d = np.asarray(gm.direction, dtype=np.float64)
+            self.parts.append((ground_motion(gm), d / np.linalg.norm(d)))
+
+    def __bool__(self) -> bool:
+        return bool(self.parts)
+
+    def __call__(self, t: float) -> FloatArray:
+        a = np.zeros(3)
+        for history, d in self.parts:
+            a += history(t) * d
+        return a
+
+
+def default_points(sc: Scenario) -> dict[str, list[float]]:
+    """The scenario's ``[spectra] points``, or for a crane: the trolley frame's centre (top),
+    wheel 1's centre and the top of end carriage 1 under girder 1 (the girder's support)."""
+    if sc.spectra.points:
+        return {k: list(v) for k, v in sc.spectra.points.items()}
+    if not isinstance(sc.model, CraneModel):
+        return {}
+    geo = sc.model.geometry()
+    x1, y1 = geo.wheel_centres()[0]
+    top = geo.rail_top + geo.wheel_height
+    return {
+        "trolley": [0.0, geo.trolley_position, top + geo.frame_thickness],
+        "wheel_1": [x1, y1, geo.rail_top + 0.5 * geo.wheel_height],
+        "support_1": [
+            -0.5 * geo.girder_spacing,
+            0.5 * geo.end_carriage_width,
+            geo.end_carriage_height,
+        ],
+    }
+
+
+@dataclass
+class _Point:
+    name: str
+    side: str  # "explicit" or "implicit"
+    blocks: npt.NDArray[np.int64]  # the owned block on this rank (0 or 1 entries)
+    distance: float
+
+
+class PointMotions:
+    """Absolute accelerations of named points, sampled by :meth:`sample` (collective over
+    the mesh communicator; the samples are global values, the same on every rank).
+
+    Args:
+        points: name → coordinates (m).
+        explicit, implicit: the subdomains (either may be None).
+        vertex_xyz: coordinates of the parent mesh's owned vertices (n, 3) and their global
+            ids ``vertex_ids`` (the index map's).
+        ground: the ground acceleration.
+    """
+
+    def __init__(
+        self,
+        points: dict[str, list[float]],
+        explicit: Subdomain | None,
+        implicit: Subdomain | None,
+        vertex_xyz: FloatArray,
+        vertex_ids: npt.NDArray[np.int64],
+        ground: GroundAcceleration,
+        comm: MPI.Comm,
+    ) -> None:
+        self.comm, self.ground = comm, ground
+        self.points: list[_Point] = []
+        for name, where in points.items():
+            d = np.linalg.norm(vertex_xyz - np.asarray(where)[None, :], axis=1)
+            k = int(np.argmin(d)) if d.size else -1
+            # Ties (a symmetric mesh) go to the lowest coordinates, whatever the partition.
+            mine = (
+                (round(float(d[k]), 12), *vertex_xyz[k].tolist(), int(vertex_ids[k]))
+                if k >= 0
+                else (np.inf, 0.0, 0.0, 0.0, -1)
+            )
+            best = min(comm.allgather(mine))
+            dist, gid = float(best[0]), int(best[-1])
+            vid = np.array([gid], dtype=np.int64)
+            side, blocks = "implicit", np.zeros(0, dtype=np.int64)
+            for label, sub in (("explicit", explicit), ("implicit", implicit)):
+                if sub is None:
+                    continue
+                b, _ = sub.owned_dofs_of(vid)
+                if comm.allreduce(int(b.size), op=MPI.SUM):
+                    side, blocks = label, b
+                    break
+            self.points.append(_Point(name, side, blocks, dist))
+        any_side = explicit if explicit is not None else implicit
+        self.bs = any_side.bs if any_side is not None else 3
+        self.t: list[float] = []
+        self.acc: list[FloatArray] = []
+        self._v_prev: FloatArray | None = None
+
+    @property
+    def columns(self) -> list[str]:
+        axes = "xyz"[: self.bs]
+        cols = [f"ground_a{c}" for c in axes] if self.ground else []
+        return cols + [f"{p.name}_a{c}" for p in self.points for c in axes]
+
+    @property
+    def needs_implicit(self) -> bool:
+        return any(p.side == "implicit" for p in self.points)
+
+    def sample(
+        self,
+        t: float,
+        v_explicit: FloatArray | None,
+        v_implicit: FloatArray | None,
+    ) -> dict[str, float]:
+        """Sample the points' velocities at ``t`` (owned fields) and return the row values of
+        :attr:`columns`: the ground acceleration at ``t`` and each point's absolute mean
+        acceleration since the last sample (collective)."""
+        bs = self.bs
+        vel = np.zeros((len(self.points), bs))
+        for i, p in enumerate(self.points):
+            v = v_explicit if p.side == "explicit" else v_implicit
+            if p.blocks.size and v is not None:
+                vel[i] = v.reshape(-1, bs)[p.blocks[0]]
+        vel = self.comm.allreduce(vel, op=MPI.SUM)
+        ag = self.ground(t)[:bs]
+        if self._v_prev is None or not self.t:
+            acc = np.tile(ag, (len(self.points), 1))
+        else:
+            dt = t - self.t[-1]
+            ag_mean = 0.5 * (ag + self.ground(self.t[-1])[:bs])
+            acc = (vel - self._v_prev) / dt + ag_mean[None, :]
+        self._v_prev = vel
+        self.t.append(t)
+        self.acc.append(acc.copy())
+        row: dict[str, float] = {}
+        if self.ground:
+            row.update({f"ground_a{c}": float(ag[i]) for i, c in enumerate("xyz"[:bs])})
+        for i, p in enumerate(self.points):
+            for j, c in enumerate("xyz"[:bs]):
+                row[f"{p.name}_a{c}"] = float(acc[i, j])
+        return row
+
+    def series(self) -> tuple[FloatArray, dict[str, FloatArray]]:
+        """The sample times and, per column name, its samples (ground included)."""
+        t = np.asarray(self.t)
+        acc = np.asarray(self.acc).reshape(len(self.t), len(self.points), self.bs)
+        out: dict[str, FloatArray] = {}
+        if self.ground:
+            g = np.array([self.ground(s)[: self.bs] for s in self.t]).reshape(-1, self.bs)
+            for j, c in enumerate("xyz"[: self.bs]):
+                out[f"ground_a{c}"] = g[:, j]
+        for i, p in enumerate(self.points):
+            for j, c in enumerate("xyz"[: self.bs]):
+                out[f"{p.name}_a{c}"] = acc[:, i, j]
+        return t, out

@@ -1,0 +1,163 @@
+"""Support reactions: the force each clamped face applies to the structure, from the rows of
+the unconstrained operators at its DOFs.
+
+The clamped DOFs carry no equation in the run (their rows are identities). Their reaction is
+the residual of the unconstrained rows, R = K_f u + C_f v + M_f (a + ι a_g − g): the
+structure's internal, damping and inertia forces at the face minus its body load (self-weight
+and the relative formulation's −M ι a_g), which is the force the support applies. The rows
+K_f and M_f (a few hundred on a crane) are assembled once; an evaluation is two small products. The
+acceleration a is the mean over the last interval between evaluations, Δv / Δt: the inertia of
+the half elements next to a face is small against their elastic force.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from crane_fem.model import assemble_structure
+from crane_fem.subdomains import Subdomain
+
+__all__ = ["SupportReactions", "face_labels"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+def face_labels(xy: FloatArray, comm: MPI.Comm) -> tuple[npt.NDArray[np.int64], FloatArray]:
+    """Label clamped points by face: the clusters of their (x, y) positions taken in order of
+    y then x (a crane's four end-carriage ends: 1, 2 at y = 0, then 3, 4), with the centre of
+    each face (collective; ``xy`` the owned points' coordinates, (n, 3))."""
+    allxy = np.concatenate(comm.allgather(np.asarray(xy, dtype=np.float64).reshape(-1, 3)))
+    if allxy.shape[0] == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
+    span = float(np.ptp(allxy[:, :2], axis=0).max()) or 1.0
+    # Faces are planes far apart against their size: cluster by x and y separately.
+    keys = []
+    for axis in (1, 0):
+        vals = np.sort(np.unique(np.round(allxy[:, axis] / (1e-3 * span))))
+        breaks = vals[1:][np.diff(vals) > 50]  # gaps of more than 5 % of the extent
+        keys.append(breaks)
+    by, bx = keys
+
+    def label(p: FloatArray) -> npt.NDArray[np.int64]:
+        iy = np.searchsorted(by, np.round(p[:, 1] / (1e-3 * span)), side="right")
+        ix = np.searchsorted(bx, np.round(p[:, 0] / (1e-3 * span)), side="right")
+        return np.asarray(iy * (bx.size + 1) + ix, dtype=np.int64)
+
+    all_lab = label(allxy)
+    used, dense = np.unique(all_lab, return_inverse=True)
+    centres = np.array([allxy[dense == k].mean(axis=0) for k in range(used.size)])
+    mine = np.searchsorted(used, label(np.asarray(xy, dtype=np.float64).reshape(-1, 3)))
+    return mine.astype(np.int64), centres
+
+
+class SupportReactions:
+    """The force of each clamped face on the structure, for the fields of the subdomain
+    ``sub`` that holds the clamped DOFs (collective over its mesh communicator). Owns two
+    PETSc matrices of face rows: :meth:`destroy` them.
+
+    Args:
+        sub: the subdomain (its ``model.fixed`` marks the clamped owned DOFs).
+        E, nu, rho: the material (ρ of the cells next to the faces).
+        rayleigh: (α, β) of C = α M + β K.
+        gravity: the gravity vector (m/s²).
+    """
+
+    def __init__(
+        self,
+        sub: Subdomain,
+        E: float,
+        nu: float,
+        rho: float,
+        rayleigh: tuple[float, float],
+        gravity: FloatArray | list[float],
+    ) -> None:
+        V, bs = sub.V, sub.bs
+        self.subdomain = sub.name
+        self.comm = sub.submesh.comm
+        self.bs = bs
+        self.alpha, self.beta = rayleigh
+        self.gravity = np.asarray(gravity, dtype=np.float64)[:bs]
+        n_own = sub.model.n_owned
+        start = V.dofmap.index_map.local_range[0] * bs
+        self.rows = np.flatnonzero(sub.model.fixed).astype(np.int32)
+        none = np.zeros(0, dtype=np.int32)
+        K, _, M = assemble_structure(V, E, nu, rho, 1.0, none, True)
+        assert M is not None
+        isrow = PETSc.IS().createGeneral(self.rows + start, comm=self.comm)
+        iscol = PETSc.IS().createStride(n_own, first=start, step=1, comm=self.comm)
+        self.K = K.createSubMatrix(isrow, iscol)
+        self.M = M.createSubMatrix(isrow, iscol)
+        for obj in (K, M, isrow, iscol):
+            obj.destroy()
+        self._x = self.K.createVecRight()
+        self._r = self.K.createVecLeft()
+        xyz = V.tabulate_dof_coordinates()[: sub.n_owned_blocks]
+        blocks = self.rows[::bs] // bs if bs > 1 else self.rows
+        labels, self.centres = face_labels(xyz[blocks], self.comm)
+        self.n_faces = self.centres.shape[0]
+        self.labels = labels
+        self.peak = np.zeros(self.n_faces)
+        self.t_peak = np.zeros(self.n_faces)
+        self.peak_vertical = np.zeros(self.n_faces)
+        self.t_vertical = np.zeros(self.n_faces)
+        self.initial: FloatArray | None = None
+        self._v_prev: FloatArray | None = None
+        self._t_prev = 0.0
+
+    def _apply(self, A: PETSc.Mat, x: FloatArray) -> FloatArray:
+        self._x.array[:] = x
+        A.mult(self._x, self._r)
+        return np.array(self._r.array, dtype=np.float64)
+
+    def forces(self, t: float, u: FloatArray, v: FloatArray, ground: FloatArray) -> FloatArray:
+        """The force of each face on the structure at time ``t`` (n_faces, bs), N, for the
+        owned fields ``u``, ``v`` and the ground acceleration vector ``ground`` (collective).
+        Successive calls give the mean acceleration between them."""
+        bs = self.bs
+        if self._v_prev is None or t <= self._t_prev:
+            a = np.zeros_like(v)
+        else:
+            a = (v - self._v_prev) / (t - self._t_prev)
+        self._v_prev, self._t_prev = v.copy(), t
+        body = np.tile(np.asarray(ground, dtype=np.float64)[:bs] - self.gravity, v.size // bs)
+        r = self._apply(self.K, u + self.beta * v) + self._apply(self.M, a + body + self.alpha * v)
+        local = np.zeros((self.n_faces, bs))
+        np.add.at(local, self.labels, r.reshape(-1, bs))
+        return np.asarray(self.comm.allreduce(local, op=MPI.SUM), dtype=np.float64)
+
+    def update(self, t: float, u: FloatArray, v: FloatArray, ground: FloatArray) -> None:
+        """Evaluate the faces' forces at ``t`` and keep their peaks (collective)."""
+        f = self.forces(t, u, v, ground)
+        if self.initial is None:
+            self.initial = f
+        norm = np.linalg.norm(f, axis=1)
+        better = norm > self.peak
+        self.peak[better], self.t_peak[better] = norm[better], t
+        vert = np.abs(f[:, -1])
+        better = vert > self.peak_vertical
+        self.peak_vertical[better], self.t_vertical[better] = vert[better], t
+
+    def table(self) -> dict[str, dict[str, Any]]:
+        """Per face (numbered from 1): its centre, the peak of the force's magnitude and of its
+        vertical component with their times, and the force at the first evaluation (N)."""
+        init = self.initial if self.initial is not None else np.zeros((self.n_faces, self.bs))
+        return {
+            str(k + 1): {
+                "centre_m": [float(c) for c in self.centres[k]],
+                "peak_force_N": float(self.peak[k]),
+                "peak_force_time_s": float(self.t_peak[k]),
+                "peak_vertical_N": float(self.peak_vertical[k]),
+                "peak_vertical_time_s": float(self.t_vertical[k]),
+                "initial_force_N": [float(x) for x in init[k]],
+            }
+            for k in range(self.n_faces)
+        }
+
+    def destroy(self) -> None:
+        for obj in (self.K, self.M, self._x, self._r):
+            obj.destroy()
