@@ -130,7 +130,7 @@ def main(argv: list[str] | None = None) -> int:
     from mpi4py import MPI
 
     from crane_fem._compat import launcher_size_mismatch, venv_mpiexec
-    from crane_fem.errors import ScenarioError, UnstableRunError
+    from crane_fem.errors import RunInterrupted, ScenarioError, UnstableRunError
     from crane_fem.scenario import load_scenario
 
     args = _parser().parse_args(argv)
@@ -173,6 +173,13 @@ def main(argv: list[str] | None = None) -> int:
     except UnstableRunError as exc:
         _error(exc)
         return 3
+    except RunInterrupted as exc:
+        _error(exc)
+        return 128 + (15 if "SIGTERM" in str(exc) else 2)
+    except KeyboardInterrupt:
+        # Before the time loop (set-up, meshing): nothing to keep.
+        _error(CraneFemError("interrupted before the time loop; no results were written"))
+        return 130
     except CraneFemError as exc:
         _error(exc)
         return 1
@@ -205,6 +212,7 @@ def _run(sc: Scenario, args: argparse.Namespace, comm: Any) -> int:
     """Prepare the output directory, run, and say where the outputs are (collective)."""
     from crane_fem.driver import run_scenario
     from crane_fem.io import prepare_output_dir
+    from crane_fem.io.results import results_lines
 
     rank0 = comm.rank == 0
     restart = args.restart
@@ -226,8 +234,11 @@ def _run(sc: Scenario, args: argparse.Namespace, comm: Any) -> int:
             f"energy balance error {s['energy_balance_error']:.2e}; "
             f"{s['contact_intervals']} contact interval(s)"
         )
+        for line in results_lines(s):
+            print(f"crane-fem: {line}")
         xdmf = sorted(p.name for p in Path(outdir).glob("*.xdmf"))
-        files = ["history.csv", "summary.json", *xdmf]
+        extra = [f for f in ("results.csv", "spectra.csv") if (Path(outdir) / f).exists()]
+        files = ["history.csv", "summary.json", *extra, *xdmf]
         print(f"crane-fem: outputs in {outdir}/ ({', '.join(files)})")
     return 0
 
@@ -271,15 +282,17 @@ def _bench(args: argparse.Namespace, comm: Any) -> int:
 
 def _plot(outdir: Path) -> int:
     from crane_fem.compare import describe, write_comparison
-    from crane_fem.plotting import plot_outputs
+    from crane_fem.plotting import plot_figures
 
     try:
-        paths = plot_outputs(outdir)
+        figures = plot_figures(outdir)
         compared = write_comparison(outdir)
     except (FileNotFoundError, ValueError) as exc:
         _error(exc)
         return 2
-    for p in paths:
+    for line in figures.warnings:
+        print(f"crane-fem: warning: {line}")
+    for p in figures.paths:
         print(f"crane-fem: wrote {p}")
     if compared is not None:
         path, result = compared
