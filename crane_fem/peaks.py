@@ -5,11 +5,13 @@ A lift-off of a group (a wheel) is a separation, all its points open by more tha
 ``LIFT_GAP``, whose flight rises higher than ``LIFT_HEIGHT``; the short, low separations that
 follow an impact (chatter of the node-to-node contact, tens of micrometres) are not lift-offs.
 
-An impact of a group begins at its first micro step with a force above its static force (the
-preload's wheel force, or zero) after a landing (the end of a lift-off) or, for a group that
-starts open, after its first closing; it ends at the first micro step where the group opens
-again or its force falls back to the static force. Its impulse is the group's impulse summed
-over those steps (N·s), its peak the largest force.
+An impact of a group is the burst of contact forces a landing sets off: it begins at the first
+micro step, after a landing (the end of a lift-off) or, for a group that starts open, after its
+first closing, whose force exceeds ``IMPACT_LOAD`` times the group's static force (the
+preload's wheel force, or zero); it ends where the force then stays at or below that level for
+``IMPACT_QUIET`` seconds (the rattling of the node-to-node pairs within a landing belongs to
+it). Its impulse is the group's impulse summed from its onset to its end (N·s), its peak the
+largest force. A bar on a wall (no static force) has one impact per contact interval.
 """
 
 from __future__ import annotations
@@ -20,12 +22,19 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["LIFT_GAP", "LIFT_HEIGHT", "ContactPeaks"]
+__all__ = ["IMPACT_LOAD", "IMPACT_QUIET", "LIFT_GAP", "LIFT_HEIGHT", "ContactPeaks"]
 
 FloatArray = npt.NDArray[np.float64]
 
 LIFT_GAP = 1e-6  # m: a wheel is off its rail when all its pairs are open by more than this
 LIFT_HEIGHT = 1e-4  # m: a lift-off is a flight higher than this; lower ones are chatter
+#: An impact's forces exceed this many times the static force; the weight carried, shaken by
+#: the ground's acceleration (1.4 g at most in the crane's records), stays mostly below it.
+IMPACT_LOAD = 2.0
+#: s: an impact ends when its forces stay at or below IMPACT_LOAD × static this long (the
+#: crane's landing peaks 0.12 ms after its first strike; the elastic waves through a trolley
+#: take 0.3 ms).
+IMPACT_QUIET = 1e-3
 #: The array attributes of :class:`ContactPeaks` that change as it runs.
 _ARRAYS = (
     "peak_force",
@@ -57,7 +66,9 @@ class ContactPeaks:
         # An impact awaited (after a landing) or under way: its onset, impulse and peak.
         self._awaiting = np.zeros(n, dtype=bool)
         self._striking = np.zeros(n, dtype=bool)
-        self._strike = np.zeros((n, 3))
+        # onset, impulse, peak impulse, quiet steps, impulse and time at the quiet's start
+        self._strike = np.zeros((n, 6))
+        self._quiet = max(1, round(IMPACT_QUIET / self.dt))
         self.peak_force = np.zeros(n)
         self.peak_time = np.zeros(n)
         self.max_gap = np.full(n, -np.inf)
@@ -96,7 +107,11 @@ class ContactPeaks:
             cuts = [0, *landings.get(k, []), t.size]
             for i in range(len(cuts) - 1):
                 if i > 0:
-                    self._awaiting[k], self._striking[k] = True, False
+                    if self._striking[k]:  # the last impact ended by the flight's quiet
+                        st = self._strike[k]
+                        end = st[5] if st[3] > 0 else float(t[cuts[i]])
+                        self._close(k, float(st[0]), float(st[4]), float(st[2]), end)
+                    self._awaiting[k] = True
                 self._impact(k, t, off[:, k], impulse[:, k], cuts[i], cuts[i + 1])
         self._t_last = float(t[-1])
 
@@ -109,32 +124,60 @@ class ContactPeaks:
         a: int,
         b: int,
     ) -> None:
-        """Follow group k's awaited or current impact over trace steps [a, b)."""
-        static = self.static[k] * self.dt
+        """Follow group k's awaited or current impact over trace steps [a, b) (NumPy over the
+        quiet runs between its loud steps)."""
+        level = IMPACT_LOAD * self.static[k] * self.dt
         if self._awaiting[k]:
-            hit = np.flatnonzero(impulse[a:b] > static)
+            hit = np.flatnonzero(impulse[a:b] > level)
             if hit.size == 0:
                 return
             a += int(hit[0])
             self._awaiting[k], self._striking[k] = False, True
-            self._strike[k] = (t[a], 0.0, 0.0)
-        if not self._striking[k]:
+            self._strike[k] = (t[a], 0.0, 0.0, 0.0, 0.0, t[a])
+        if not self._striking[k] or a >= b:
             return
-        stop = np.flatnonzero(off[a:b] | (impulse[a:b] <= static))
-        e = a + int(stop[0]) if stop.size else b
-        self._strike[k, 1] += float(impulse[a:e].sum())
-        self._strike[k, 2] = max(self._strike[k, 2], float(impulse[a:e].max(initial=0.0)))
-        if stop.size:
-            onset, j, peak = self._strike[k]
-            self.impacts[k].append(
-                {
-                    "t_s": float(onset),
-                    "impulse_Ns": float(j),
-                    "duration_s": float(t[e] - onset),
-                    "peak_force_N": float(peak / self.dt),
-                }
-            )
-            self._striking[k] = False
+        st = self._strike[k]
+        seg = impulse[a:b]
+        loud = np.flatnonzero(seg > level)
+        # The quiet runs: before the first loud step (continuing the carried one), between
+        # loud steps, after the last; each (start, length) in the segment.
+        starts = np.r_[0, loud + 1]
+        lengths = np.r_[loud, seg.size] - starts
+        lengths[0] += int(st[3])
+        long = np.flatnonzero(lengths >= self._quiet)
+        if long.size:
+            r = int(long[0])
+            if r == 0 and st[3] > 0:  # the quiet began in an earlier trace
+                j, t_end = st[4], st[5]
+            else:
+                e = int(starts[r])
+                j = st[1] + float(seg[:e].sum())
+                st[2] = max(st[2], float(seg[:e].max(initial=0.0)))
+                t_end = float(t[a + e])
+            self._close(k, float(st[0]), float(j), float(st[2]), t_end)
+            return
+        if loud.size:
+            last = int(starts[-1])
+            st[4] = st[1] + float(seg[:last].sum())
+            st[5] = float(t[a + last]) if last < seg.size else 0.0
+            st[3] = float(lengths[-1])
+        else:
+            if st[3] == 0:  # the quiet begins with this segment
+                st[4], st[5] = st[1], float(t[a])
+            st[3] += seg.size
+        st[1] += float(seg.sum())
+        st[2] = max(st[2], float(seg.max(initial=0.0)))
+
+    def _close(self, k: int, onset: float, impulse: float, peak: float, t_end: float) -> None:
+        self.impacts[k].append(
+            {
+                "t_s": onset,
+                "impulse_Ns": impulse,
+                "duration_s": t_end - onset,
+                "peak_force_N": peak / self.dt,
+            }
+        )
+        self._striking[k] = False
 
     def _separations(
         self,
@@ -209,7 +252,7 @@ class ContactPeaks:
     def _open_impact(self, k: int) -> list[dict[str, float]]:
         if not self._striking[k]:
             return []
-        onset, j, peak = self._strike[k]
+        onset, j, peak = self._strike[k, :3]
         return [
             {
                 "t_s": float(onset),

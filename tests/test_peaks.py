@@ -46,13 +46,45 @@ def test_contact_peaks_by_hand() -> None:
     assert g["impacts"] == [
         {"t_s": t[12], "impulse_Ns": 5.5, "duration_s": t[17] - t[12], "peak_force_N": 7.0}
     ]
-    # Above a static force of 2 N, the impact is step 13 alone (force 7 N, then 1 N).
+    # With a static force of 2 N an impact's forces exceed 2 × 2 N: step 13 alone (7 N).
     for sizes in ([20], [1] * 20, [13, 7]):
         peaks = ContactPeaks(["g"], dt, static=np.array([2.0]))
         _feed(peaks, t, impulse, gap, sizes)
         assert peaks.table()["g"]["impacts"] == [
             {"t_s": t[13], "impulse_Ns": 3.5, "duration_s": dt, "peak_force_N": 7.0}
         ]
+
+
+def test_an_impact_holds_its_rattle_and_ends_after_a_quiet_spell() -> None:
+    """Δt = 0.1 ms, so an impact ends after 10 quiet steps (IMPACT_QUIET = 1 ms). A landing
+    strikes in three bursts 5 quiet steps apart (one impact), then the force stays at the
+    static level (the impact ends where that began). A later burst with no landing before it
+    is not an impact. Any chunking gives the same impact."""
+    dt = 1e-4
+    n = 80
+    t = dt * np.arange(1, n + 1)
+    gap = np.zeros((n, 1))
+    gap[:10, 0] = 1e-3  # flying from an earlier lift-off of 1 mm
+    force = np.full(n, 100.0)  # the static force (weight carried)
+    force[:10] = 0.0
+    bursts = [10, 11, 17, 23, 24]  # loud steps: 0.1 ms rattle within the landing
+    force[bursts] = [900.0, 5000.0, 700.0, 1200.0, 300.0]
+    force[60] = 4000.0  # no landing before it: not an impact
+    impulse = (force * dt)[:, None]
+    expected = {
+        "t_s": t[10],
+        "impulse_Ns": float(impulse[10:25, 0].sum()),
+        "duration_s": t[25] - t[10],
+        "peak_force_N": 5000.0,
+    }
+    for sizes in ([n], [1] * n, [12, 7, 9, 30, 22], [26, 54], [10, 15, 55]):
+        peaks = ContactPeaks(["g"], dt, static=np.array([100.0]))
+        peaks._flying[0], peaks._onset[0], peaks._height[0] = True, 0.0, 1e-3
+        _feed(peaks, t, impulse, gap, sizes)
+        (got,) = peaks.table()["g"]["impacts"]
+        assert got["t_s"] == expected["t_s"] and got["peak_force_N"] == pytest.approx(5000.0)
+        assert got["impulse_Ns"] == pytest.approx(expected["impulse_Ns"], rel=1e-14)
+        assert got["duration_s"] == pytest.approx(expected["duration_s"], rel=1e-12)
 
 
 def test_impacts_of_a_group_that_starts_open() -> None:
