@@ -45,7 +45,9 @@ def ground_motion_series(t: FloatArray, a: FloatArray) -> GroundMotion:
 
 
 def _components(run: Run) -> list[str]:
-    return [c for c, col in GROUND_COLUMNS.items() if col in run.history]
+    """The directions the ground shakes in (a column of zeros is a direction it does not)."""
+    h = run.history
+    return [c for c, col in GROUND_COLUMNS.items() if col in h and np.any(h[col] != 0.0)]
 
 
 def input_motion_figure(runs: list[Run], path: Path) -> Path | None:
