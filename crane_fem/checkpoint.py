@@ -149,7 +149,8 @@ def write_checkpoint(
     error = None
     try:
         with (tmp / f"rank{comm.rank}.npz").open("wb") as f:
-            np.savez(f, **flatten(state))  # type: ignore[arg-type]  (numpy's stub: kwargs)
+            # (numpy's stub types the keyword arrays as its allow_pickle flag)
+            np.savez(f, **flatten(state))  # type: ignore[arg-type]
     except OSError as exc:
         error = f"checkpoint: cannot write {tmp}: {exc}"
     _agree(comm, error)
@@ -171,13 +172,10 @@ def write_checkpoint(
     _on_root(comm, finish)
 
 
-def read_checkpoint(
-    restart: Path, comm: MPI.Comm, sc: Scenario, checks: dict[str, Any]
-) -> Checkpoint:
+def read_checkpoint(restart: Path, comm: MPI.Comm, sc: Scenario) -> Checkpoint:
     """The latest checkpoint in ``restart`` for this rank (collective). Refused, with a
-    one-line :class:`ScenarioError` on every rank: no checkpoint, one written by another
-    number of ranks or for another scenario (:func:`scenario_hash`), or whose ``checks``
-    entries (step sizes, method) differ from this run's."""
+    one-line :class:`ScenarioError` on every rank: no checkpoint, or one written by another
+    number of ranks or for another scenario (:func:`scenario_hash`)."""
     root = restart / CHECKPOINT_DIR
 
     def latest() -> dict[str, Any]:
@@ -201,12 +199,6 @@ def read_checkpoint(
                 f"--restart: the checkpoint in {restart} is of another scenario (only {keys} "
                 "may change on restart)"
             )
-        for key, value in checks.items():
-            if meta.get(key) != value:
-                raise ValueError(
-                    f"--restart: the checkpoint's {key} = {meta.get(key)!r} differs from "
-                    f"this run's {value!r}"
-                )
         return meta
 
     meta = _on_root(comm, latest)

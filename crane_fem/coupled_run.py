@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -14,6 +15,13 @@ import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 
+from crane_fem.checkpoint import (
+    Checkpoint,
+    read_checkpoint,
+    resume_series,
+    scenario_hash,
+    write_checkpoint,
+)
 from crane_fem.coupling import ENERGY_KEYS, MacroRecord
 from crane_fem.errors import RunInterrupted, ScenarioError, UnstableRunError
 from crane_fem.io import HistoryWriter, XDMFSeries
@@ -150,22 +158,29 @@ class HistoryRows:
         return row
 
 
-def _xdmf_writers(sc: Scenario, sim: Simulation, out: Path) -> list[tuple[Subdomain, XDMFSeries]]:
+def _xdmf_writers(
+    sc: Scenario, sim: Simulation, out: Path, resume: tuple[Path, int] | None = None
+) -> list[tuple[Subdomain, XDMFSeries]]:
+    """One XDMF series per subdomain; ``resume`` = (restart directory, frames): continue its
+    series after their first ``frames`` frames."""
     writers: list[tuple[Subdomain, XDMFSeries]] = []
     if not sc.output.xdmf:
         return writers
     md = sim.models
-    for sub in (md.explicit, md.implicit):
-        if sub is None:
-            continue
+    subs = [sub for sub in (md.explicit, md.implicit) if sub is not None]
+    paths = [out / f"solution_{sub.name.replace('+', '_')}.xdmf" for sub in subs]
+    if resume is not None:
+        resume_series(resume[0], out, paths, resume[1], sim.mesh.comm)
+    for sub, path in zip(subs, paths, strict=True):
         is_e = sub is md.explicit
         names = ["displacement", "velocity"] + (["contact_force"] if is_e else [])
         series = XDMFSeries(
-            out / f"solution_{sub.name.replace('+', '_')}.xdmf",
+            path,
             sub.V,
             names,
             constants={"subdomain": 0.0 if is_e else 1.0},
             von_mises=(sc.material.E, sc.material.nu) if sub.bs == 3 else None,
+            append=resume is not None,
         )
         writers.append((sub, series))
     return writers
@@ -201,6 +216,13 @@ class BridgeStress:
         value, where = self.vm.peak_at(u, self.cells, self.comm)
         if value > self.peak:
             self.peak, self.t_peak, self.location = value, rec.t, where
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"peak": self.peak, "t_peak": self.t_peak, "location": self.location.copy()}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.peak, self.t_peak = float(state["peak"]), float(state["t_peak"])
+        self.location = np.array(state["location"], dtype=np.float64)
 
 
 def _support_reactions(sc: Scenario, sim: Simulation) -> SupportReactions | None:
@@ -267,6 +289,105 @@ def _spectra(sc: Scenario, motions: PointMotions, out: Path, comm: MPI.Comm) -> 
             p.name: {"side": p.side, "distance_m": p.distance} for p in motions.points
         },
     }
+
+
+@dataclass
+class LoopBooks:
+    """What the time loop accumulates from the records (global values; the reactions' last
+    velocities are this rank's): the history rows, the contact peaks, the divergence
+    monitor, the bridge stress, the support reactions, the measured points and their last
+    row, the energy drift and its scale, the interface energy's steps, the micro-step times
+    and contact flags, the XDMF frames written. A checkpoint saves and restores it whole."""
+
+    history: dict[str, list[float]]
+    peaks: ContactPeaks
+    monitor: EnergyGrowthMonitor
+    stress: BridgeStress | None = None
+    reactions: SupportReactions | None = None
+    motions: PointMotions | None = None
+    point_row: dict[str, float] = field(default_factory=dict)
+    micro_t: list[FloatArray] = field(default_factory=list)
+    micro_active: list[npt.NDArray[np.bool_]] = field(default_factory=list)
+    total0: float | None = None
+    scale: float = 0.0
+    max_drift: float = 0.0
+    ifd_min_step: float = math.inf
+    ifd_prev: float = 0.0
+    frames: int = 0
+
+    _PARTS = ("peaks", "monitor", "stress", "reactions", "motions")
+    _SCALARS = ("scale", "max_drift", "ifd_min_step", "ifd_prev", "frames")
+
+    def state_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {k: getattr(self, k) for k in self._SCALARS}
+        out["history"] = {c: np.asarray(v, dtype=np.float64) for c, v in self.history.items()}
+        out["point_row"] = dict(self.point_row)
+        out["micro_t"] = np.concatenate([np.zeros(0), *self.micro_t])
+        out["micro_active"] = np.concatenate([np.zeros(0, dtype=bool), *self.micro_active])
+        if self.total0 is not None:
+            out["total0"] = self.total0
+        for k in self._PARTS:
+            part = getattr(self, k)
+            if part is not None:
+                out[k] = part.state_dict()
+        return out
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        """Restore in place (the loop's aliases of the parts stay valid)."""
+        if set(state["history"]) != set(self.history):
+            raise ScenarioError("--restart: the checkpoint's history has other columns")
+        for c, rows in self.history.items():
+            rows[:] = [float(x) for x in state["history"][c]]
+        self.point_row = {k: float(v) for k, v in state.get("point_row", {}).items()}
+        self.micro_t[:] = [np.asarray(state["micro_t"], dtype=np.float64)]
+        self.micro_active[:] = [np.asarray(state["micro_active"], dtype=bool)]
+        self.total0 = float(state["total0"]) if "total0" in state else None
+        self.scale, self.max_drift = float(state["scale"]), float(state["max_drift"])
+        self.ifd_min_step, self.ifd_prev = float(state["ifd_min_step"]), float(state["ifd_prev"])
+        self.frames = int(state["frames"])
+        for k in self._PARTS:
+            part = getattr(self, k)
+            if part is not None:
+                part.load_state_dict(state[k])
+
+
+def _step_sizes(sim: Simulation) -> dict[str, Any]:
+    """What a checkpoint must share with the run that continues it, beyond the scenario."""
+    md = sim.models
+    return {"method": md.method, "ratio": md.ratio, "dt": md.dt, "dT": md.dT}
+
+
+def _save(sim: Simulation, out: Path, rec: MacroRecord, books: LoopBooks) -> None:
+    """The checkpoint of ``rec``'s macro step, before the loop uses ``rec`` (collective)."""
+    sc = sim.scenario
+    meta = {"step": rec.step, "t": rec.t, "scenario": sc.name}
+    meta.update(scenario_hash=scenario_hash(sc), **_step_sizes(sim))
+    state = {
+        "method": sim.integrators.method.state_dict(),
+        "record": rec.state_dict(),
+        "books": books.state_dict(),
+    }
+    write_checkpoint(out, sim.mesh.comm, meta, state)
+
+
+def _resume(ckpt: Checkpoint, sim: Simulation, books: LoopBooks, restart: Path) -> MacroRecord:
+    """Restore the method's state and the loop's books from ``ckpt``; return the record of
+    its macro step, which the loop has not used yet (refusals are the same on every rank)."""
+    meta = ckpt.meta
+    for key, value in _step_sizes(sim).items():
+        if meta.get(key) != value:
+            raise ScenarioError(
+                f"--restart: the checkpoint's {key} = {meta.get(key)!r} differs from this "
+                f"run's {value!r}"
+            )
+    if ckpt.step > sim.models.n_macro:
+        raise ScenarioError(
+            f"--restart: time.end = {sim.scenario.time.end:g} s is before the checkpoint in "
+            f"{restart} (t = {meta['t']:g} s)"
+        )
+    sim.integrators.method.load_state_dict(ckpt.state["method"])
+    books.load_state_dict(ckpt.state["books"])
+    return sim.integrators.system.resume_record(ckpt.state["record"])
 
 
 def _peak_tables(peaks: ContactPeaks) -> dict[str, Any]:
@@ -338,63 +459,85 @@ def run_coupled(
     Collective over ``comm``.
     """
     comm = MPI.COMM_WORLD if comm is None else comm
-    if restart is not None:
-        raise ScenarioError("--restart: not implemented yet")
     out = Path(outdir)
     t_wall = time.perf_counter()
+    ckpt = read_checkpoint(Path(restart), comm, sc) if restart is not None else None
     sim = create_simulation(sc, comm)
     md, it = sim.models, sim.integrators
     method = it.method
     rows = HistoryRows(sim)
-    stress = BridgeStress(sim) if sim.mesh.crane is not None else None
-    reactions = _support_reactions(sc, sim) if sim.mesh.crane is not None else None
-    motions = _point_motions(sc, sim)
-    ground = GroundAcceleration(sc)
-    columns = rows.columns + (motions.columns if motions is not None else [])
-    point_row: dict[str, float] = {}
-    history: dict[str, list[float]] = {c: [] for c in columns}
-    every = sc.output.every
-    xdmf_every = sc.output.xdmf_every or max(1, md.n_macro // 200)
-    summary = _summary_head(sc, sim, comm)
-    writers = _xdmf_writers(sc, sim, out)
-    bar = progress_bar(sc, comm, progress, md.n_macro, "macro step")
-    micro_t: list[FloatArray] = []
-    micro_active: list[npt.NDArray[np.bool_]] = []
     contacts = sim.constraints.contacts
     static = md.preload.wheel_force if md.preload is not None else None
-    peaks = ContactPeaks(contacts.group_names, md.dt, static)
-    total0: float | None = None
-    scale = max_drift = 0.0
-    ifd_min_step = math.inf
-    ifd_prev = 0.0
-    monitor = EnergyGrowthMonitor(sc.monitor.energy_growth, "", "", md.dt, md.dt_critical)
+    motions = _point_motions(sc, sim)
+    columns = rows.columns + (motions.columns if motions is not None else [])
+    b = LoopBooks(
+        {c: [] for c in columns},
+        ContactPeaks(contacts.group_names, md.dt, static),
+        EnergyGrowthMonitor(sc.monitor.energy_growth, "", "", md.dt, md.dt_critical),
+        BridgeStress(sim) if sim.mesh.crane is not None else None,
+        _support_reactions(sc, sim) if sim.mesh.crane is not None else None,
+        motions,
+    )
+    history, peaks, monitor = b.history, b.peaks, b.monitor
+    stress, reactions = b.stress, b.reactions
+    ground = GroundAcceleration(sc)
+    every = sc.output.every
+    xdmf_every = sc.output.xdmf_every or max(1, md.n_macro // 200)
+    ckpt_every = sc.output.checkpoint_every
+    summary = _summary_head(sc, sim, comm)
+    resumed = None
+    try:  # a refused restart leaves the files as they were
+        if ckpt is not None:
+            assert restart is not None
+            resumed = _resume(ckpt, sim, b, Path(restart))
+            summary["restart"] = {"from": str(restart), "step": ckpt.step, "t": ckpt.meta["t"]}
+        resume = (Path(restart), b.frames) if restart is not None else None
+        writers = _xdmf_writers(sc, sim, out, resume)
+    except BaseException:
+        if reactions is not None:
+            reactions.destroy()
+        sim.destroy()
+        raise
+    bar = progress_bar(sc, comm, progress, md.n_macro, "macro step")
     comm.barrier()
     t_loop = time.perf_counter()
     summary["wall_time_setup_s"] = comm.allreduce(t_loop - t_wall, op=MPI.MAX)
-    t_output = 0.0
+    t_output = t_checkpoint = 0.0
+    n_checkpoints = 0
     stop = StopRequest(comm)
     try:
-        with stop, HistoryWriter(out / "history.csv", columns, comm) as writer:
-            rec = method.initialize(it.interface_force0)
-            n = 0
+        with stop, HistoryWriter(out / "history.csv", columns, comm, history) as writer:
+            rec = method.initialize(it.interface_force0) if resumed is None else resumed
+            bar.update(rec.step)
+            n = rec.step
             while True:
+                # The checkpoint of a macro step is taken before its record is used: the run
+                # continued from it uses the record as this one does.
+                due = ckpt_every and rec.step and rec.step % ckpt_every == 0
+                if due and rec is not resumed and method.resumable():
+                    t_ck = time.perf_counter()
+                    _save(sim, out, rec, b)
+                    t_checkpoint += time.perf_counter() - t_ck
+                    n_checkpoints += 1
                 e = rec.energy
                 _growth_check(monitor, sim, rec)
-                if total0 is None:
-                    total0 = e["total"]
-                scale = max(scale, abs(e["kinetic"]) + abs(e["internal"]) + abs(e["external_work"]))
-                max_drift = max(max_drift, abs(e["total"] - total0))
-                step_ifd = e["interface_energy_gc"] - ifd_prev
+                if b.total0 is None:
+                    b.total0 = e["total"]
+                b.scale = max(
+                    b.scale, abs(e["kinetic"]) + abs(e["internal"]) + abs(e["external_work"])
+                )
+                b.max_drift = max(b.max_drift, abs(e["total"] - b.total0))
+                step_ifd = e["interface_energy_gc"] - b.ifd_prev
                 if rec.step > 0:
-                    ifd_min_step = min(ifd_min_step, step_ifd)
-                ifd_prev = e["interface_energy_gc"]
+                    b.ifd_min_step = min(b.ifd_min_step, step_ifd)
+                b.ifd_prev = e["interface_energy_gc"]
                 if rec.step == 0:
                     f0 = contacts.group_sums(rec.contact_impulse) / md.dt
                     peaks.start(rec.t, f0, contacts.group_mins(rec.gaps))
                 else:
                     peaks.update(rec.micro.t, rec.micro.impulse, rec.micro.gap)
-                micro_t.append(rec.micro.t)
-                micro_active.append(rec.micro.active)
+                b.micro_t.append(rec.micro.t)
+                b.micro_active.append(rec.micro.active)
                 # Output time apart from the time loop's: the barriers keep a rank that waits
                 # for rank 0's writing from booking that wait as integration.
                 if comm.size > 1:
@@ -406,7 +549,7 @@ def run_coupled(
                 sampled = rec.step % sc.output.stress_every == 0
                 if motions is not None and sampled:
                     need = motions.needs_implicit
-                    point_row = motions.sample(
+                    b.point_row = motions.sample(
                         rec.t, rec.explicit_v, rec.implicit_v if need else None
                     )
                 if stress is not None and (sampled or last):
@@ -419,12 +562,13 @@ def run_coupled(
                     reactions.update(rec.t, u, v, ground(rec.t))
                 if rec.step % every == 0 or last:
                     row = rows.row(rec)
-                    row.update(point_row)
+                    row.update(b.point_row)
                     writer.write(row)
                     for c in columns:
                         history[c].append(row[c])
                 frame = rec.step % xdmf_every == 0 or last
                 if writers and frame:
+                    b.frames += 1
                     for sub, w in writers:
                         is_e = sub is md.explicit
                         du = rec.explicit_u if is_e else rec.implicit_u
@@ -467,13 +611,21 @@ def run_coupled(
         bar.close()
         for _, w in writers:
             w.close()
-        # The time loop alone: integration, without the history rows and XDMF frames.
+        # The time loop alone: integration, without the history rows, XDMF frames and
+        # checkpoints.
         loop = time.perf_counter() - t_loop
+        t_output += t_checkpoint
         summary["wall_time_integration_s"] = comm.allreduce(loop - t_output, op=MPI.MAX)
         summary["wall_time_output_s"] = comm.allreduce(t_output, op=MPI.MAX)
+        if ckpt_every:
+            summary["checkpoints"] = {
+                "every": ckpt_every,
+                "written": n_checkpoints,
+                "wall_time_s": comm.allreduce(t_checkpoint, op=MPI.MAX),
+            }
         summary["steps_done"] = round(history["t"][-1] / md.dT) if history["t"] else 0
         summary["interface_energy_gc_min_step"] = (
-            ifd_min_step if math.isfinite(ifd_min_step) else 0.0
+            b.ifd_min_step if math.isfinite(b.ifd_min_step) else 0.0
         )
         summary.update(method.summary())
         summary["t_reached_s"] = history["t"][-1] if history["t"] else 0.0
@@ -490,9 +642,9 @@ def run_coupled(
             summary.update(_spectra(sc, motions, out, comm))
         if comm.rank == 0:
             write_results_csv(out / "results.csv", summary)
-        times = np.concatenate(micro_t) if micro_t else np.zeros(0)
-        active = np.concatenate(micro_active) if micro_active else np.zeros(0, dtype=bool)
-        finish_summary(summary, out, comm, t_wall, times, active, max_drift, scale)
+        times = np.concatenate([np.zeros(0), *b.micro_t])
+        active = np.concatenate([np.zeros(0, dtype=bool), *b.micro_active])
+        finish_summary(summary, out, comm, t_wall, times, active, b.max_drift, b.scale)
         sim.destroy()
         comm.barrier()
     return RunResult(summary, {c: np.asarray(v, dtype=np.float64) for c, v in history.items()})

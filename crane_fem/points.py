@@ -10,6 +10,7 @@ acceleration over the interval: the relative formulation's motion is relative to
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -169,6 +170,21 @@ class PointMotions:
             for j, c in enumerate("xyz"[:bs]):
                 row[f"{p.name}_a{c}"] = float(acc[i, j])
         return row
+
+    def state_dict(self) -> dict[str, Any]:
+        """The samples so far and the last velocities (a checkpoint; global values)."""
+        shape = (len(self.t), len(self.points), self.bs)
+        out: dict[str, Any] = {"t": np.asarray(self.t, dtype=np.float64)}
+        out["acc"] = np.asarray(self.acc, dtype=np.float64).reshape(shape)
+        if self._v_prev is not None:
+            out["v_prev"] = self._v_prev.copy()
+        return out
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.t = [float(x) for x in state["t"]]
+        self.acc = [np.array(a, dtype=np.float64) for a in state["acc"]]
+        v = state.get("v_prev")
+        self._v_prev = None if v is None else np.array(v, dtype=np.float64)
 
     def series(self) -> tuple[FloatArray, dict[str, FloatArray]]:
         """The sample times and, per column name, its samples (ground included)."""

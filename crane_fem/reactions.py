@@ -55,6 +55,10 @@ def face_labels(xy: FloatArray, comm: MPI.Comm) -> tuple[npt.NDArray[np.int64], 
     return mine.astype(np.int64), centres
 
 
+#: The per-face peaks :class:`SupportReactions` keeps.
+_PEAKS = ("peak", "t_peak", "peak_vertical", "t_vertical")
+
+
 class SupportReactions:
     """The force of each clamped face on the structure, for the fields of the subdomain
     ``sub`` that holds the clamped DOFs (collective over its mesh communicator). Owns two
@@ -141,6 +145,25 @@ class SupportReactions:
         vert = np.abs(f[:, -1])
         better = vert > self.peak_vertical
         self.peak_vertical[better], self.t_vertical[better] = vert[better], t
+
+    def state_dict(self) -> dict[str, Any]:
+        """The peaks, the first forces and the last velocities (a checkpoint; the velocities
+        are this rank's owned values)."""
+        out: dict[str, Any] = {k: getattr(self, k).copy() for k in _PEAKS}
+        out["t_prev"] = self._t_prev
+        if self.initial is not None:
+            out["initial"] = self.initial.copy()
+        if self._v_prev is not None:
+            out["v_prev"] = self._v_prev.copy()
+        return out
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        for k in _PEAKS:
+            setattr(self, k, np.array(state[k], dtype=np.float64))
+        self._t_prev = float(state["t_prev"])
+        init, v = state.get("initial"), state.get("v_prev")
+        self.initial = None if init is None else np.array(init, dtype=np.float64)
+        self._v_prev = None if v is None else np.array(v, dtype=np.float64)
 
     def table(self) -> dict[str, dict[str, Any]]:
         """Per face (numbered from 1): its centre, the peak of the force's magnitude and of its

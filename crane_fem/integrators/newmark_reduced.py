@@ -117,7 +117,7 @@ class ReducedNewmark(NewmarkSteps):
             load = AffineLoad(
                 self._load_to_modal(load.base),
                 np.array([self._load_to_modal(f) for f in load.shapes]).reshape(
-                    len(load.histories), -1
+                    len(load.histories), u0.size
                 ),
                 load.histories,
             )

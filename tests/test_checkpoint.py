@@ -1,0 +1,300 @@
+"""Checkpoint and restart (issue 17 item 5): a run continued from its latest checkpoint ends
+as the uninterrupted run does — history (in memory and history.csv), summary and XDMF frames
+bit for bit serially, to 1e-10 under mpiexec -n 2 — for every coupling method and the fully
+explicit reference, with the full or the reduced implicit side; bad restarts are refused with
+one line."""
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from conftest import COMM, assert_same_histories, make_scenario
+
+from crane_fem.checkpoint import (
+    CHECKPOINT_DIR,
+    flatten,
+    read_checkpoint,
+    scenario_hash,
+    unflatten,
+    write_checkpoint,
+)
+from crane_fem.driver import RunResult, run_scenario
+from crane_fem.errors import ScenarioError
+from crane_fem.io import read_history, read_xdmf
+from crane_fem.scenario import Scenario, load_scenario
+
+QUICK = Path(__file__).parent.parent / "demos" / "crane_quick.toml"
+#: Serial runs are reproducible to the bit; two-rank runs vary at round-off from one run to
+#: the next (distributed reductions), which the crane's impacts amplify.
+RTOL = 0.0 if COMM.size == 1 else 1e-10
+#: Summary entries that say how the run went rather than what it computed.
+VOLATILE = ("wall_time", "restart", "checkpoints")
+
+SUBS = [
+    {"name": "near", "groups": ["left"], "scheme": "cd-lagrange"},
+    {"name": "far", "groups": ["right"], "scheme": "newmark"},
+]
+#: The split bar with a cos² pulse crossing the interface (no contact: "ph" and "ec" need the
+#: explicit side linear), 400 elements, Δt = h/2, m = 4: 60 macro steps to t = 0.3.
+PULSE = {
+    "model": {"elements": 400, "split": 0.4},
+    "initial": {"velocity": 0.0, "pulse": {"center": 0.2, "width": 0.2, "amplitude": 1e-3}},
+    "contact": [],
+}
+
+
+def _subdomains(reduced: bool) -> list[dict[str, Any]]:
+    """The split bar's two sides, the implicit one full or reduced (20 modes)."""
+    if not reduced:
+        return SUBS
+    return [SUBS[0], {**SUBS[1], "scheme": "newmark-reduced", "modes": 20}]
+
+
+def _pulse(
+    method: str, end: float, every: int | None = None, reduced: bool = False, **extra: Any
+) -> Scenario:
+    """The split bar; with XDMF frames for GC with the full implicit side."""
+    return make_scenario(
+        **PULSE,
+        time={"end": end, "dt_factor": 0.5},
+        subdomain=_subdomains(reduced),
+        coupling={"method": method, "ratio": 4},
+        output={"xdmf": method == "gc" and not reduced, "checkpoint_every": every},
+        **extra,
+    )
+
+
+def _crane(end: float, every: int | None = None, *overrides: str) -> Scenario:
+    sets = [f"time.end={end}", "output.xdmf=false", *overrides]
+    if every is not None:
+        sets.append(f"output.checkpoint_every={every}")
+    return load_scenario(QUICK, sets)
+
+
+def _run(sc: Scenario, out: Path, restart: Path | None = None) -> RunResult:
+    return run_scenario(sc, out, COMM, progress=False, restart=restart)
+
+
+def _volatile(path: str, key: str) -> bool:
+    """Wall times, the restart's own entries, and the reduction's set-up times."""
+    return key.startswith(VOLATILE) or (path == ".reduction" and key.endswith("_s"))
+
+
+def _same_summary(a: Any, b: Any, energy: float, path: str = "") -> None:
+    """Equal summaries (serial), volatile entries left out; with two ranks, numbers within
+    RTOL of their own size, those that are round-off themselves (the energy closure, the
+    interface energy's smallest step, the "ec" residual) within RTOL of the energy scale
+    ``energy`` (J) or of 1 (dimensionless)."""
+    if isinstance(a, dict):
+        keys, other = ({k for k in d if not _volatile(path, k)} for d in (a, b))
+        assert keys == other, (path, keys ^ other)
+        for k in sorted(keys - {"status", "diagnosis"}):
+            _same_summary(a[k], b[k], energy, f"{path}.{k}")
+    elif isinstance(a, list | tuple):
+        assert len(a) == len(b), path
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            _same_summary(x, y, energy, f"{path}[{i}]")
+    elif isinstance(a, float) and RTOL:
+        key = path.rsplit(".", 1)[-1]
+        floor = {"energy_balance_error": 1.0, "ec_residual_max": 1.0}.get(key, 0.0)
+        if key in ("energy_balance_error_abs", "interface_energy_gc_min_step"):
+            floor = energy
+        assert abs(a - b) <= RTOL * max(abs(a), floor), (path, a, b)
+    else:
+        assert a == b or (isinstance(a, float) and math.isnan(a) and math.isnan(b)), (path, a, b)
+
+
+def _same_histories(h1: dict, h2: dict) -> None:
+    if RTOL == 0.0:
+        differ = [c for c in h1 if not np.array_equal(h1[c], h2[c])]
+        assert h1.keys() == h2.keys() and not differ, differ
+    else:
+        assert_same_histories(h1, h2, RTOL)
+
+
+def _check_restart(
+    full: Scenario,
+    cut: Scenario | None,
+    resumed: Scenario,
+    tmp: Path,
+    frames: bool = False,
+) -> tuple[RunResult, RunResult]:
+    """``full`` uninterrupted; ``cut`` (an earlier end, with checkpoints; None: already run
+    in ``tmp / "cut"``) then ``resumed`` (``full`` with checkpoints) from its latest
+    checkpoint, in the same directory: the two runs' histories, history.csv, summaries,
+    results.csv and spectra.csv (and XDMF frames) agree."""
+    ref = _run(full, tmp / "ref")
+    if cut is not None:
+        first = _run(cut, tmp / "cut")
+        assert first.summary["checkpoints"]["written"] >= 1
+    res = _run(resumed, tmp / "cut", restart=tmp / "cut")
+    assert res.summary["restart"]["step"] > 0
+    _same_histories(ref.history, res.history)
+    _same_histories(
+        read_history(tmp / "ref" / "history.csv"), read_history(tmp / "cut" / "history.csv")
+    )
+    h = ref.history
+    energy = max(float(np.max(np.abs(h[c]))) for c in ("total", "kinetic", "external_work"))
+    _same_summary(ref.summary, res.summary, energy)
+    _same_summary(
+        json.loads((tmp / "ref" / "summary.json").read_text()),
+        json.loads((tmp / "cut" / "summary.json").read_text()),
+        energy,
+    )
+    for name in ("results.csv", "spectra.csv"):
+        assert (tmp / "ref" / name).exists() == (tmp / "cut" / name).exists(), name
+        if RTOL == 0.0 and (tmp / "ref" / name).exists():
+            assert (tmp / "ref" / name).read_bytes() == (tmp / "cut" / name).read_bytes(), name
+    if frames:
+        for path in sorted((tmp / "ref").glob("*.xdmf")):
+            _, _, a = read_xdmf(path)
+            _, _, b = read_xdmf(tmp / "cut" / path.name)
+            assert a.keys() == b.keys()
+            for name in a:
+                assert [t for t, _ in a[name]] == [t for t, _ in b[name]], (path.name, name)
+                for (_, x), (_, y) in zip(a[name], b[name], strict=True):
+                    if RTOL == 0.0:
+                        assert np.array_equal(x, y), (path.name, name)
+    return ref, res
+
+
+# ----------------------------------------------------------------------------------------
+@pytest.mark.parametrize("reduced", [False, True], ids=["full", "reduced"])
+@pytest.mark.parametrize("method", ["gc", "gc-mean", "ph", "ec"])
+def test_restart_equals_the_uninterrupted_run_on_the_split_bar(method, reduced, shared_tmp) -> None:
+    """60 macro steps against 40 with a checkpoint at 25 (the 15 rows and frames written
+    after it are dropped), then continued to 60: the same run."""
+    full, cut, resumed = (
+        _pulse(method, end, every, reduced) for end, every in ((0.3, None), (0.2, 25), (0.3, 25))
+    )
+    _check_restart(full, cut, resumed, shared_tmp, frames=method == "gc" and not reduced)
+
+
+def test_restart_after_an_interruption_within_a_macro_step(shared_tmp, monkeypatch) -> None:
+    """A run stopped by Ctrl-C in the middle of macro step 33 (its state half-updated, rows
+    and frames written up to step 32) continues from its checkpoint at step 25 to the
+    uninterrupted run's result, XDMF frames included."""
+    from crane_fem.coupling import GravouilCombescure
+
+    step = GravouilCombescure.step
+
+    def interrupted(self: GravouilCombescure) -> Any:
+        if self.system.n == 32:
+            self.system.E.advance(self.system.E.steps(self.system.n * self.system.dT, 2))
+            raise KeyboardInterrupt
+        return step(self)
+
+    monkeypatch.setattr(GravouilCombescure, "step", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        _run(_pulse("gc", 0.3, 25), shared_tmp / "cut")
+    monkeypatch.undo()
+    cut = json.loads((shared_tmp / "cut" / "summary.json").read_text())
+    assert cut["status"] == "interrupted" and cut["steps_done"] == 32
+    _, res = _check_restart(_pulse("gc", 0.3), None, _pulse("gc", 0.3, 25), shared_tmp, True)
+    assert res.summary["restart"]["step"] == 25
+
+
+@pytest.mark.parametrize("reduced", [False, True], ids=["full", "reduced"])
+def test_restart_of_the_hybrid_through_impacts(reduced, shared_tmp) -> None:
+    """ "hybrid" on the bar hitting the wall (its "ec" steps while the contact is open, GC and
+    refined GC steps through the impact), continued from a checkpoint before the impact: the
+    continued run equals the uninterrupted one, step counts of each kind included."""
+
+    def sc(end: float, every: int | None = None) -> Scenario:
+        return make_scenario(
+            model={"elements": 200, "split": 0.4},
+            time={"end": end, "dt_factor": 0.9},
+            subdomain=_subdomains(reduced),
+            coupling={"method": "hybrid", "ratio": 4, "impact_ratio": 2},
+            output={"xdmf": False, "checkpoint_every": every},
+        )
+
+    # Δt = 4.5e-3, ΔT = 0.018: the impact at t = 0.1 falls in macro step 6; the checkpoint
+    # at step 3 of the cut run (4 steps) is before it.
+    ref, res = _check_restart(sc(0.5), sc(0.07, 3), sc(0.5, 3), shared_tmp)
+    assert res.summary["restart"]["step"] == 3
+    steps = ref.summary["hybrid_steps"]
+    assert steps["ec"] > 0 and steps["gc"] > 0 and steps["gc_refined"] > 0, steps
+
+
+def test_restart_of_the_monolithic_reference(shared_tmp) -> None:
+    """The fully explicit reference, 7 steps per macro step: interrupted (no change of end)
+    after its checkpoint at macro step 9 of 12, and extended from a run whose last macro
+    step is short (no checkpoint there: a longer run takes that step whole: the latest is
+    the one before)."""
+
+    def sc(end: float, every: int | None = None) -> Scenario:
+        return make_scenario(
+            model={"elements": 100},
+            time={"end": end, "dt_factor": 0.9},
+            coupling={"method": "monolithic", "scheme": "cd-lagrange", "ratio": 7},
+            output={"xdmf": False, "checkpoint_every": every},
+        )
+
+    # Δt = 0.009: 84 steps to 0.75 (12 macro steps), 58 to 0.52 (8 whole ones and 2 steps).
+    _check_restart(sc(0.75), sc(0.75, 9), sc(0.75, 9), shared_tmp / "same")
+    _, res = _check_restart(sc(0.75), sc(0.52, 3), sc(0.75, 3), shared_tmp / "extended")
+    assert res.summary["restart"]["step"] == 6
+
+
+def test_restart_of_the_crane(shared_tmp) -> None:
+    """The quick crane (GC, m = 100, preloaded wheels, bridge stress, wheel peaks and
+    impacts) through the wheels' lift-off: cut at 0.011 s with a checkpoint every 20 macro
+    steps, continued to 0.013 s."""
+    _check_restart(_crane(0.013), _crane(0.011, 20), _crane(0.013, 20), shared_tmp)
+
+
+# ----------------------------------------------------------------------------------------
+def test_state_flattens_and_back() -> None:
+    """Nested dicts of arrays and scalars survive the one-level form of the npz files."""
+    state = {"a": {"x": np.arange(3.0), "n": 4, "ok": True}, "t": 0.1, "s": "[1.5]"}
+    back = unflatten(flatten(state))
+    assert np.array_equal(back["a"]["x"], state["a"]["x"])
+    assert back["a"]["n"] == 4 and back["a"]["ok"] is True
+    assert back["t"] == 0.1 and back["s"] == "[1.5]"
+    with pytest.raises(ValueError, match="contains"):
+        flatten({"a/b": 1.0})
+
+
+def test_bad_restarts_are_refused_with_one_line(shared_tmp) -> None:
+    """No checkpoint, one of another number of ranks, of another scenario, or past the end
+    time: a one-line ScenarioError on every rank, before any step."""
+    out = shared_tmp / "run"
+    _run(_pulse("gc", 0.05, 5), out)
+
+    def refused(sc: Scenario, restart: Path, match: str) -> None:
+        with pytest.raises(ScenarioError, match=match) as err:
+            _run(sc, shared_tmp / "again", restart=restart)
+        assert "\n" not in str(err.value)
+
+    refused(_pulse("gc", 0.05, 5), shared_tmp / "nowhere", "no checkpoint")
+    refused(_pulse("gc", 0.05, 5, material={"E": 2.0}), out, "another scenario")
+    refused(_pulse("gc", 0.02, 5), out, "before the checkpoint")
+    # The scenario's free keys: the end time and the checkpoint interval.
+    assert scenario_hash(_pulse("gc", 0.05, 5)) == scenario_hash(_pulse("gc", 0.5, None))
+    latest = out / CHECKPOINT_DIR / "latest.json"
+    if COMM.rank == 0:
+        meta = json.loads(latest.read_text())
+        latest.write_text(json.dumps({**meta, "nranks": COMM.size + 1}))
+    COMM.barrier()
+    refused(_pulse("gc", 0.05, 5), out, f"written by {COMM.size + 1} rank")
+
+
+def test_an_interrupted_write_leaves_the_previous_checkpoint(shared_tmp) -> None:
+    """A checkpoint becomes the latest only once every rank has written it: a directory left
+    half-written is not read, and the next write replaces it and removes the older one."""
+    sc = _pulse("gc", 0.05, 5)
+    meta = {"step": 3, "t": 0.3, "scenario_hash": scenario_hash(sc)}
+    write_checkpoint(shared_tmp, COMM, meta, {"x": np.full(2, COMM.rank, dtype=float)})
+    root = shared_tmp / CHECKPOINT_DIR
+    if COMM.rank == 0:
+        (root / "step_00000004.tmp").mkdir()  # a write cut short
+    COMM.barrier()
+    got = read_checkpoint(shared_tmp, COMM, sc)
+    assert got.step == 3 and np.array_equal(got.state["x"], [COMM.rank] * 2)
+    write_checkpoint(shared_tmp, COMM, {**meta, "step": 4}, {"x": np.zeros(2)})
+    assert read_checkpoint(shared_tmp, COMM, sc).step == 4
+    assert sorted(p.name for p in root.iterdir()) == ["latest.json", "step_00000004"]
