@@ -81,40 +81,64 @@ def _run(sc: Scenario, out: Path, restart: Path | None = None) -> RunResult:
 
 
 def _volatile(path: str, key: str) -> bool:
-    """Wall times, the restart's own entries, and the reduction's set-up times."""
+    """Wall times, the restart's own entries, and the reduction's set-up times; with two
+    ranks, the place of the bridge's peak stress (the crane is mirror symmetric: mirror-image
+    cells share the peak to round-off, and which one a two-rank run reports changes from
+    one run to the next)."""
+    if RTOL and key == "peak_bridge_von_mises_location_m":
+        return True
     return key.startswith(VOLATILE) or (path == ".reduction" and key.endswith("_s"))
 
 
-def _same_summary(a: Any, b: Any, energy: float, path: str = "") -> None:
+def _same_summary(a: Any, b: Any, floors: dict[str, float], path: str = "") -> None:
     """Equal summaries (serial), volatile entries left out; with two ranks, numbers within
-    RTOL of their own size, those that are round-off themselves (the energy closure, the
-    interface energy's smallest step, the "ec" residual) within RTOL of the energy scale
-    ``energy`` (J) or of 1 (dimensionless)."""
+    RTOL of their own size, or of ``floors[key]`` for those that are round-off themselves
+    (the energy closure, the preload's balance, the "ec" residual)."""
     if isinstance(a, dict):
         keys, other = ({k for k in d if not _volatile(path, k)} for d in (a, b))
         assert keys == other, (path, keys ^ other)
         for k in sorted(keys - {"status", "diagnosis"}):
-            _same_summary(a[k], b[k], energy, f"{path}.{k}")
+            _same_summary(a[k], b[k], floors, f"{path}.{k}")
     elif isinstance(a, list | tuple):
         assert len(a) == len(b), path
         for i, (x, y) in enumerate(zip(a, b, strict=True)):
-            _same_summary(x, y, energy, f"{path}[{i}]")
+            _same_summary(x, y, floors, f"{path}[{i}]")
     elif isinstance(a, float) and RTOL:
-        key = path.rsplit(".", 1)[-1]
-        floor = {"energy_balance_error": 1.0, "ec_residual_max": 1.0}.get(key, 0.0)
-        if key in ("energy_balance_error_abs", "interface_energy_gc_min_step"):
-            floor = energy
+        floor = floors.get(path.rsplit(".", 1)[-1], 0.0)
         assert abs(a - b) <= RTOL * max(abs(a), floor), (path, a, b)
     else:
         assert a == b or (isinstance(a, float) and math.isnan(a) and math.isnan(b)), (path, a, b)
 
 
+def _floors(ref: RunResult) -> dict[str, float]:
+    """The scales of a summary's round-off entries: 1 (relative errors), the energy (J), the
+    trolley's weight (N)."""
+    h, s = ref.history, ref.summary
+    energy = max(float(np.max(np.abs(h[c]))) for c in ("total", "kinetic", "external_work"))
+    floors = dict.fromkeys(("energy_balance_error", "ec_residual_max", "sum_relative_error"), 1.0)
+    floors.update(energy_balance_error_abs=energy, interface_energy_gc_min_step=energy)
+    if "preload" in s:
+        floors["support_reaction_N"] = s["preload"]["trolley_weight_N"]
+    return floors
+
+
+#: Two ranks: the measured points' accelerations, Δv/ΔT, turn the velocities' round-off into
+#: 1.2e-10 of the largest acceleration between two uninterrupted two-rank runs of the quick
+#: crane (measured): they are held to ten times that.
+ACC_RTOL = 1e-9
+ACCELERATIONS = ("_ax", "_ay", "_az")
+
+
 def _same_histories(h1: dict, h2: dict) -> None:
+    assert h1.keys() == h2.keys()
     if RTOL == 0.0:
         differ = [c for c in h1 if not np.array_equal(h1[c], h2[c])]
-        assert h1.keys() == h2.keys() and not differ, differ
-    else:
-        assert_same_histories(h1, h2, RTOL)
+        assert not differ, differ
+        return
+    acc = [c for c in h1 if c.endswith(ACCELERATIONS)]
+    assert_same_histories(*({c: h[c] for c in h if c not in acc} for h in (h1, h2)), RTOL)
+    if acc:
+        assert_same_histories(*({c: h[c] for c in acc} for h in (h1, h2)), ACC_RTOL)
 
 
 def _check_restart(
@@ -138,13 +162,12 @@ def _check_restart(
     _same_histories(
         read_history(tmp / "ref" / "history.csv"), read_history(tmp / "cut" / "history.csv")
     )
-    h = ref.history
-    energy = max(float(np.max(np.abs(h[c]))) for c in ("total", "kinetic", "external_work"))
-    _same_summary(ref.summary, res.summary, energy)
+    floors = _floors(ref)
+    _same_summary(ref.summary, res.summary, floors)
     _same_summary(
         json.loads((tmp / "ref" / "summary.json").read_text()),
         json.loads((tmp / "cut" / "summary.json").read_text()),
-        energy,
+        floors,
     )
     for name in ("results.csv", "spectra.csv"):
         assert (tmp / "ref" / name).exists() == (tmp / "cut" / name).exists(), name
