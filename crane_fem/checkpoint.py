@@ -46,6 +46,7 @@ __all__ = [
     "FREE_KEYS",
     "Checkpoint",
     "flatten",
+    "raise_if_any",
     "read_checkpoint",
     "resume_series",
     "scenario_hash",
@@ -109,8 +110,8 @@ def unflatten(arrays: dict[str, npt.NDArray[Any]]) -> dict[str, Any]:
     return out
 
 
-def _agree(comm: MPI.Comm, error: str | None) -> None:
-    """Raise :class:`ScenarioError` on every rank when some rank met ``error``."""
+def raise_if_any(comm: MPI.Comm, error: str | None) -> None:
+    """Raise :class:`ScenarioError` on every rank when some rank met ``error`` (collective)."""
     errors = [e for e in comm.allgather(error) if e]
     if errors:
         raise ScenarioError(errors[0])
@@ -153,7 +154,7 @@ def write_checkpoint(
             np.savez(f, **flatten(state))  # type: ignore[arg-type]
     except OSError as exc:
         error = f"checkpoint: cannot write {tmp}: {exc}"
-    _agree(comm, error)
+    raise_if_any(comm, error)
     meta = {**meta, "format": FORMAT, "nranks": comm.size, "written": time.time()}
 
     def finish() -> None:
@@ -209,7 +210,7 @@ def read_checkpoint(restart: Path, comm: MPI.Comm, sc: Scenario) -> Checkpoint:
             state = unflatten({k: data[k] for k in data.files})
     except (OSError, ValueError) as exc:
         error = f"--restart: cannot read {path}: {' '.join(str(exc).split())}"
-    _agree(comm, error)
+    raise_if_any(comm, error)
     return Checkpoint(meta, state)
 
 

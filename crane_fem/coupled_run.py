@@ -17,6 +17,7 @@ from mpi4py import MPI
 
 from crane_fem.checkpoint import (
     Checkpoint,
+    raise_if_any,
     read_checkpoint,
     resume_series,
     scenario_hash,
@@ -335,7 +336,7 @@ class LoopBooks:
     def load_state_dict(self, state: dict[str, Any]) -> None:
         """Restore in place (the loop's aliases of the parts stay valid)."""
         if set(state["history"]) != set(self.history):
-            raise ScenarioError("--restart: the checkpoint's history has other columns")
+            raise ValueError("the history has other columns")
         for c, rows in self.history.items():
             rows[:] = [float(x) for x in state["history"][c]]
         self.point_row = {k: float(v) for k, v in state.get("point_row", {}).items()}
@@ -372,7 +373,8 @@ def _save(sim: Simulation, out: Path, rec: MacroRecord, books: LoopBooks) -> Non
 
 def _resume(ckpt: Checkpoint, sim: Simulation, books: LoopBooks, restart: Path) -> MacroRecord:
     """Restore the method's state and the loop's books from ``ckpt``; return the record of
-    its macro step, which the loop has not used yet (refusals are the same on every rank)."""
+    its macro step, which the loop has not used yet (collective: refusals are the same on
+    every rank)."""
     meta = ckpt.meta
     for key, value in _step_sizes(sim).items():
         if meta.get(key) != value:
@@ -385,9 +387,19 @@ def _resume(ckpt: Checkpoint, sim: Simulation, books: LoopBooks, restart: Path) 
             f"--restart: time.end = {sim.scenario.time.end:g} s is before the checkpoint in "
             f"{restart} (t = {meta['t']:g} s)"
         )
-    sim.integrators.method.load_state_dict(ckpt.state["method"])
-    books.load_state_dict(ckpt.state["books"])
-    return sim.integrators.system.resume_record(ckpt.state["record"])
+    error, rec = None, None
+    try:
+        sim.integrators.method.load_state_dict(ckpt.state["method"])
+        books.load_state_dict(ckpt.state["books"])
+        rec = sim.integrators.system.resume_record(ckpt.state["record"])
+    except (KeyError, ValueError, TypeError) as exc:
+        error = (
+            f"--restart: the checkpoint in {restart} does not fit this run (written by another "
+            f"version of crane-fem?): {' '.join(str(exc).split())}"
+        )
+    raise_if_any(sim.mesh.comm, error)
+    assert rec is not None
+    return rec
 
 
 def _peak_tables(peaks: ContactPeaks) -> dict[str, Any]:

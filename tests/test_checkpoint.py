@@ -323,8 +323,9 @@ def test_peaks_and_monitor_restore_every_attribute() -> None:
 
 
 def test_bad_restarts_are_refused_with_one_line(shared_tmp) -> None:
-    """No checkpoint, one of another number of ranks, of another scenario, or past the end
-    time: a one-line ScenarioError on every rank, before any step."""
+    """No checkpoint, one of another number of ranks, of another scenario, past the end
+    time, or whose state does not fit: a one-line ScenarioError on every rank, before any
+    step."""
     out = shared_tmp / "run"
     _run(_pulse("gc", 0.05, 5), out)
 
@@ -339,6 +340,14 @@ def test_bad_restarts_are_refused_with_one_line(shared_tmp) -> None:
     # The scenario's free keys: the end time and the checkpoint interval.
     assert scenario_hash(_pulse("gc", 0.05, 5)) == scenario_hash(_pulse("gc", 0.5, None))
     latest = out / CHECKPOINT_DIR / "latest.json"
+    # A state that does not fit this run's objects (another version's checkpoint).
+    mine = out / CHECKPOINT_DIR / json.loads(latest.read_text())["dir"] / f"rank{COMM.rank}.npz"
+    with np.load(mine) as data:
+        arrays = {k: data[k] for k in data.files if k != "method/system/lam_macro_prev"}
+    with mine.open("wb") as f:
+        np.savez(f, **arrays)
+    COMM.barrier()
+    refused(_pulse("gc", 0.05, 5), out, "does not fit this run")
     if COMM.rank == 0:
         meta = json.loads(latest.read_text())
         latest.write_text(json.dumps({**meta, "nranks": COMM.size + 1}))
