@@ -557,12 +557,14 @@ def run_coupled(
                 t_out = time.perf_counter()
                 stopping = stop.requested()
                 last = rec.step == md.n_macro or stopping
-                # The implicit side's fields (a reduced side expands them) at this cadence.
+                # The measured points every macro step (a few rows of the implicit side);
+                # the stress and the reactions need its whole field (a reduced side expands
+                # it): every output.stress_every macro steps.
                 sampled = rec.step % sc.output.stress_every == 0
-                if motions is not None and sampled:
-                    need = motions.needs_implicit
+                if motions is not None:
+                    at = rec.implicit_at(motions.implicit_dofs)
                     b.point_row = motions.sample(
-                        rec.t, rec.explicit_v, rec.implicit_v if need else None
+                        rec.t, rec.explicit_v, at[1] if at is not None else None
                     )
                 if stress is not None and (sampled or last):
                     stress.update(rec)
@@ -574,6 +576,8 @@ def run_coupled(
                     reactions.update(rec.t, u, v, ground(rec.t))
                 if rec.step % every == 0 or last:
                     row = rows.row(rec)
+                    if motions is not None:
+                        row.update(motions.ground_row(rec.t))
                     row.update(b.point_row)
                     writer.write(row)
                     for c in columns:

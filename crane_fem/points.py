@@ -2,9 +2,10 @@
 the absolute acceleration at named points of the structure (in-structure, or floor, motion).
 
 A point is the mesh vertex nearest the given coordinates, read on the explicit side when that
-side holds it (its velocity is that of the micro steps' end), else on the implicit side. Its
-acceleration between two samples is the mean one, Δv / Δt, plus the ground's mean
-acceleration over the interval: the relative formulation's motion is relative to the ground.
+side holds it (its velocity is that of the micro steps' end), else on the implicit side (a few
+rows of a reduced side's basis). It is sampled every macro step; its acceleration between two
+samples is the mean one, Δv / ΔT, plus the ground's mean acceleration over the interval: the
+relative formulation's motion is relative to the ground.
 """
 
 from __future__ import annotations
@@ -122,10 +123,25 @@ class PointMotions:
                     break
             self.points.append(_Point(name, side, blocks, dist))
         any_side = explicit if explicit is not None else implicit
-        self.bs = any_side.bs if any_side is not None else 3
+        self.bs = bs = any_side.bs if any_side is not None else 3
+        dofs = [
+            p.blocks[0] * bs + np.arange(bs)
+            for p in self.points
+            if p.side == "implicit" and p.blocks.size
+        ]
+        self._implicit_dofs = (
+            np.concatenate(dofs).astype(np.int64) if dofs else np.zeros(0, dtype=np.int64)
+        )
         self.t: list[float] = []
         self.acc: list[FloatArray] = []
         self._v_prev: FloatArray | None = None
+
+    def ground_row(self, t: float) -> dict[str, float]:
+        """The ground acceleration's columns at ``t`` (not collective)."""
+        if not self.ground:
+            return {}
+        ag = self.ground(t)
+        return {f"ground_a{c}": float(ag[i]) for i, c in enumerate("xyz"[: self.bs])}
 
     @property
     def columns(self) -> list[str]:
@@ -134,24 +150,31 @@ class PointMotions:
         return cols + [f"{p.name}_a{c}" for p in self.points for c in axes]
 
     @property
-    def needs_implicit(self) -> bool:
-        return any(p.side == "implicit" for p in self.points)
+    def implicit_dofs(self) -> npt.NDArray[np.int64]:
+        """The owned DOFs of the implicit side's points on this rank, point by point."""
+        return self._implicit_dofs
 
     def sample(
         self,
         t: float,
         v_explicit: FloatArray | None,
-        v_implicit: FloatArray | None,
+        v_implicit_dofs: FloatArray | None,
     ) -> dict[str, float]:
-        """Sample the points' velocities at ``t`` (owned fields) and return the row values of
-        :attr:`columns`: the ground acceleration at ``t`` and each point's absolute mean
-        acceleration since the last sample (collective)."""
+        """Sample the points' velocities at ``t`` (the explicit side's owned field, the
+        implicit side's at :attr:`implicit_dofs`) and return the row values of the points'
+        columns: each point's absolute mean acceleration since the last sample
+        (collective)."""
         bs = self.bs
         vel = np.zeros((len(self.points), bs))
+        k = 0
         for i, p in enumerate(self.points):
-            v = v_explicit if p.side == "explicit" else v_implicit
-            if p.blocks.size and v is not None:
-                vel[i] = v.reshape(-1, bs)[p.blocks[0]]
+            if not p.blocks.size:
+                continue
+            if p.side == "explicit" and v_explicit is not None:
+                vel[i] = v_explicit.reshape(-1, bs)[p.blocks[0]]
+            elif p.side == "implicit" and v_implicit_dofs is not None:
+                vel[i] = v_implicit_dofs[k : k + bs]
+                k += bs
         vel = self.comm.allreduce(vel, op=MPI.SUM)
         ag = self.ground(t)[:bs]
         if self._v_prev is None or not self.t:
@@ -164,8 +187,6 @@ class PointMotions:
         self.t.append(t)
         self.acc.append(acc.copy())
         row: dict[str, float] = {}
-        if self.ground:
-            row.update({f"ground_a{c}": float(ag[i]) for i, c in enumerate("xyz"[:bs])})
         for i, p in enumerate(self.points):
             for j, c in enumerate("xyz"[:bs]):
                 row[f"{p.name}_a{c}"] = float(acc[i, j])

@@ -110,6 +110,8 @@ def assert_same_histories(h1: dict, h2: dict, rtol: float) -> None:
     v_scale = _scale(h1, [c for c in wheels if c.endswith("_vz")]) or probe["v"]
     u_scale = _scale(h1, [c for c in wheels if c.endswith("_uz")]) or probe["u"]
     acc_scale = _scale(h1, [c for c in h1 if c.endswith(("_ax", "_ay", "_az"))])
+    t_rows = h1.get("t", h2.get("t", np.zeros(0)))
+    d_t = float(np.min(np.diff(t_rows), initial=np.inf)) if t_rows.size > 1 else np.inf
     for col in h1:
         own = max(float(np.max(np.abs(h1[col]))), 1e-300)
         if col in energy:
@@ -123,10 +125,10 @@ def assert_same_histories(h1: dict, h2: dict, rtol: float) -> None:
         elif col.startswith("probe_"):
             scale = probe[col[6]]
         elif col.endswith(("_ax", "_ay", "_az")):
-            # Absolute accelerations Δv/ΔT: the velocities' round-off over ΔT (1e-12 m/s over
-            # 1.3e-4 s on the quick crane), measured against the largest acceleration of the
-            # motion they are parts of (the ground's or a point's).
-            scale = acc_scale
+            # Absolute accelerations Δv/ΔT between rows: differences of velocities over ΔT,
+            # so their round-off is the velocities' over ΔT (on the quick crane 1e-12 m/s
+            # over 1.3e-4 s); measured against that scale, or the largest acceleration's.
+            scale = max(acc_scale, v_scale / d_t)
         else:
             scale = own
         assert h1[col].shape == h2[col].shape, col

@@ -83,6 +83,7 @@ class ImplicitSide(Protocol):
     def interface_force(self, force: FloatArray) -> FloatArray: ...
     def local_dot(self, x: FloatArray, y: FloatArray) -> float: ...
     def field(self, x: FloatArray) -> FloatArray: ...
+    def field_rows(self, x: FloatArray, rows: npt.NDArray[np.int64]) -> FloatArray: ...
     def refined(self, dT: float) -> ImplicitSide: ...
     def link_response(self, force: FloatArray) -> FloatArray: ...
     def correct(self, force: FloatArray) -> None: ...
@@ -144,6 +145,16 @@ class MacroRecord:
     #: max |L_E V_E + L_I V_I| at t (m/s): the velocity continuity left, round-off for GC.
     interface_velocity_jump: float = 0.0
     _fields: tuple[FloatArray, FloatArray] | None = None
+    #: The implicit side's displacement and velocity at some owned DOFs only (cheap on a
+    #: reduced side: a few rows of its basis).
+    implicit_rows: Callable[[npt.NDArray[np.int64]], tuple[FloatArray, FloatArray]] | None = None
+
+    def implicit_at(self, rows: npt.NDArray[np.int64]) -> tuple[FloatArray, FloatArray] | None:
+        """(U, V) of the implicit side at owned DOFs ``rows``, without expanding the field
+        unless it already is."""
+        if self._fields is not None:
+            return self._fields[0][rows], self._fields[1][rows]
+        return None if self.implicit_rows is None else self.implicit_rows(rows)
 
     def _implicit(self) -> tuple[FloatArray, FloatArray] | None:
         if self._fields is None and self.implicit_fields is not None:
@@ -355,6 +366,7 @@ class CoupledSystem:
             float(np.linalg.norm(self.impulse_E)),
             float(np.linalg.norm(self.impulse_E - self.impulse_I)),
             jump,
+            implicit_rows=self._implicit_rows(),
         )
 
     def _implicit_fields(self) -> Callable[[], tuple[FloatArray, FloatArray]] | None:
@@ -368,6 +380,20 @@ class CoupledSystem:
             return I.field(u), I.field(v)
 
         return fields
+
+    def _implicit_rows(
+        self,
+    ) -> Callable[[npt.NDArray[np.int64]], tuple[FloatArray, FloatArray]] | None:
+        """The implicit side's current (U, V) at some owned DOFs, on demand."""
+        I = self.I  # noqa: E741
+        if I is None:
+            return None
+        u, v = I.u, I.v
+
+        def rows(r: npt.NDArray[np.int64]) -> tuple[FloatArray, FloatArray]:
+            return I.field_rows(u, r), I.field_rows(v, r)
+
+        return rows
 
     def micro_trace(self, t0: float, out: kx.StepsOut) -> MicroTrace:
         """The micro steps of a kernel call from t0: t_j = t0 + jΔt, and what ``out`` holds
@@ -561,6 +587,7 @@ class CoupledSystem:
             float(state["impulse_explicit"]),
             float(state["impulse_defect"]),
             float(state["interface_velocity_jump"]),
+            implicit_rows=self._implicit_rows(),
         )
 
     def use_implicit(self, implicit: ImplicitSide, ratio: int) -> None:

@@ -334,6 +334,10 @@ class Newmark(NewmarkSteps):
         """A vector of this side as a field on the subdomain's owned DOFs (itself here)."""
         return x
 
+    def field_rows(self, x: FloatArray, rows: npt.NDArray[np.int64]) -> FloatArray:
+        """:meth:`field` at owned DOFs ``rows`` only."""
+        return x[rows]
+
     def refined(self, dT: float) -> Newmark:
         """The same side with the step ΔT = ``dT``, in the same state (its own factorisation;
         caller destroys)."""

@@ -187,6 +187,10 @@ class ReducedNewmark(NewmarkSteps):
         """T x: the subdomain's field on the owned DOFs."""
         return self.basis.expand(self.modes.to_reduced(x))
 
+    def field_rows(self, x: FloatArray, rows: npt.NDArray[np.int64]) -> FloatArray:
+        """:meth:`field` at owned DOFs ``rows`` only: those rows of T."""
+        return np.asarray(self.basis.T[rows] @ self.modes.to_reduced(x))
+
     def refined(self, dT: float) -> ReducedNewmark:
         """The same side with the step ΔT = ``dT``, in the same state."""
         out = ReducedNewmark(
