@@ -228,9 +228,16 @@ def _run(sc: Scenario, args: argparse.Namespace, comm: Any) -> int:
         result = run_scenario(sc, outdir, comm, progress=args.progress, restart=restart)
     s = result.summary
     if rank0:
+        if s.get("ratio", 1) > 1:  # coupled: macro steps of m micro steps
+            steps = (
+                f"{s['steps']} macro steps of ΔT = {s['dT']:.4e} s (m = {s['ratio']}, "
+                f"{s['micro_steps']} micro steps of Δt = {s['dt']:.4e} s, "
+            )
+        else:
+            steps = f"{s.get('micro_steps', s['steps'])} steps of Δt = {s['dt']:.4e} s ("
         print(
-            f"crane-fem: {sc.name}: {s['steps']} steps of Δt = {s['dt']:.4e} s "
-            f"(critical {s['dt_critical']:.4e} s) in {s['wall_time_s']:.2f} s; "
+            f"crane-fem: {sc.name}: {steps}critical {s['dt_critical']:.4e} s) in "
+            f"{s['wall_time_s']:.2f} s; "
             f"energy balance error {s['energy_balance_error']:.2e}; "
             f"{s['contact_intervals']} contact interval(s)"
         )

@@ -623,6 +623,10 @@ def run_coupled(
         summary["status"] = "interrupted"
         summary["diagnosis"] = "interrupted by the user; the files hold the steps done"
         raise
+    except BaseException as exc:  # a refused step (CraneFemError) or a bug: not "running"
+        summary["status"] = "failed"
+        summary["diagnosis"] = str(exc) or type(exc).__name__
+        raise
     finally:
         bar.close()
         for _, w in writers:

@@ -486,6 +486,13 @@ class Scenario(_Section):
                     f"contact: not available on model.kind {mdl.kind!r} (the "
                     "crane's wheel/rail contacts come with its geometry)"
                 )
+            if isinstance(mdl, CraneModel) and self.coupling and self.coupling.method == "ph":
+                # Its explicit side must be linear over each macro step; the crane's wheels
+                # rest on their rails (active contacts) from t = 0.
+                raise ValueError(
+                    "coupling.method: 'ph' needs contact-free explicit subdomains, but the "
+                    "crane's wheels rest on their rails from t = 0; use 'gc' (or 'gc-mean')"
+                )
         if isinstance(mdl, CraneModel):
             try:
                 mdl.geometry().validate()

@@ -1,5 +1,6 @@
 """Newmark subdomain and Gravouil–Combescure coupling on the split bar and the 3D box beam."""
 
+import json
 import math
 from pathlib import Path
 
@@ -366,6 +367,9 @@ def test_ph_continuity_at_macro_steps_and_contact_limitation(shared_tmp) -> None
     )
     with pytest.raises(CraneFemError, match="'ph' needs the explicit subdomain to be linear"):
         run(sc, shared_tmp)
+    # The summary says the run failed, and why (not "running", as a killed run would).
+    summary = json.loads((shared_tmp / "summary.json").read_text())
+    assert summary["status"] == "failed" and "'ph' needs" in summary["diagnosis"]
 
 
 @pytest.mark.parametrize("ratio", [1, 2, 3, 7, 10, 50, 100, 1000])

@@ -468,7 +468,7 @@ def test_bad_interface_operator_keys_one_line_error(capsys, override, fragments)
 
 def test_interface_operator_keys_need_a_solved_interface(capsys) -> None:
     """interface_* keys on a method that does not solve the interface every micro step."""
-    sets = ["--set", "coupling.method='ph'", "--set", "coupling.interface_precision='single'"]
+    sets = ["--set", "coupling.method='ec'", "--set", "coupling.interface_precision='single'"]
     assert main(["check", str(QUICK), *sets]) == 2
     err = capsys.readouterr().err.strip()
     assert "coupling.interface_precision applies to methods gc, gc-mean, hybrid" in err, err
