@@ -95,7 +95,11 @@ class CraneModel(_Section):
     dimensions may be given, metres). Groups: ``bridge_implicit``, ``trolley_frame``,
     ``zone_1..4``, ``wheel_1..4``; clamped end-carriage faces; four wheel/rail node-to-node
     contacts. ``hoisted_mass`` (kg) is carried rigidly by the trolley frame (added to its
-    density); ``mesh`` reads a ``.msh`` written by ``crane-fem mesh`` instead of meshing."""
+    density); ``mesh`` reads a ``.msh`` written by ``crane-fem mesh`` instead of meshing.
+    ``flanges`` gives each wheel two flanges hanging ``flange_depth`` down either side of its
+    rail, ``flange_clearance`` off the rail sides, ``flange_thickness`` thick (part of
+    ``wheel_k``; the other flange keys are ignored without it): lateral flange/rail-side
+    node-to-node contacts (CraneMesh.flange_pairs)."""
 
     kind: Literal["crane"]
     span: PositiveFloat = 4.0
@@ -119,6 +123,10 @@ class CraneModel(_Section):
     zone_depth: NonNegativeFloat = 0.0
     size: PositiveFloat = 0.12
     fine: PositiveFloat = 0.04
+    flanges: bool = False
+    flange_clearance: NonNegativeFloat = 0.005
+    flange_depth: PositiveFloat = 0.02
+    flange_thickness: PositiveFloat = 0.02
     hoisted_mass: NonNegativeFloat = 0.0
     mesh: str | None = None
 

@@ -8,6 +8,12 @@ matching patch imprinted on the rail top are distinct, coincident surfaces with 
 gmsh's node correspondence, not by coordinates. Explicit zones are the wheels plus the rail and
 girder material inside a box around each contact; the rest is implicit.
 
+With ``flanges`` on, each wheel carries two flanges (guide plates) hanging down either side of
+its rail, ``flange_clearance`` away from the rail's sides, ``flange_depth`` below the rail top:
+the horizontal impacts of the guiding devices. Each flange's inner face below the rail top and
+the patch imprinted on the rail side facing it are meshed alike by a periodic constraint (a
+translation by the clearance in x); their node pairs are found by that translation.
+
 The scene is symmetric in x = 0 and, with the trolley at mid-span, in y = span/2; the mesh is
 made so too: gmsh meshes the region x ≥ 0 (y ≤ span/2), which :func:`_mirror_mesh` reflects
 into the whole crane. An unstructured mesh of the whole crane breaks the symmetry by itself:
@@ -18,8 +24,9 @@ vertical shake rocked and pitched the trolley (10 % of the wheel response), from
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
+from typing import NamedTuple
 
 import dolfinx.io.gmsh
 import dolfinx.mesh
@@ -32,9 +39,11 @@ from crane_fem.errors import ScenarioError
 from crane_fem.geometry.tagged import TaggedMesh
 
 __all__ = [
+    "FLANGE_SURFACE_NAMES",
     "CraneGeometry",
     "CraneMesh",
     "CraneMeshInfo",
+    "FlangePairs",
     "build_crane_model",
     "create_crane_mesh",
     "input_nodes_to_global_vertices",
@@ -70,10 +79,14 @@ class CraneGeometry:
     zone_depth: float = 0.0
     size: float = 0.12
     fine: float = 0.04
+    flanges: bool = False
+    flange_clearance: float = 0.005
+    flange_depth: float = 0.02
+    flange_thickness: float = 0.02
 
     def validate(self) -> None:
         """Raise ScenarioError naming the first parameter out of range (before any meshing)."""
-        signed = ("trolley_position", "zone_depth")
+        signed = ("trolley_position", "zone_depth", "flanges", "flange_clearance")
         positive = [k for k, v in self.__dict__.items() if k not in signed and v <= 0]
         if positive:
             raise ScenarioError(
@@ -103,10 +116,36 @@ class CraneGeometry:
             )
         if self.fine > self.size:
             raise ScenarioError("geometry.fine must not exceed geometry.size")
+        if self.flange_clearance < 0.0:
+            raise ScenarioError(
+                f"geometry.flange_clearance = {self.flange_clearance} must be >= 0 (the lateral "
+                "gap between a flange and the rail side)"
+            )
+        if self.flanges:
+            self._validate_flanges()
+
+    def _validate_flanges(self) -> None:
+        if not self.flange_depth < self.rail_height:
+            raise ScenarioError(
+                f"geometry.flange_depth = {self.flange_depth} must be < geometry.rail_height = "
+                f"{self.rail_height} (the flanges would reach the girder top)"
+            )
+        if not self.flange_reach < 0.5 * self.girder_spacing:
+            raise ScenarioError(
+                f"geometry.flange_thickness = {self.flange_thickness}: the inner flanges reach "
+                f"{self.flange_reach:g} from their rail's axis (rail_width/2 + flange_clearance + "
+                f"flange_thickness), past the crane's centre plane x = 0 "
+                f"(girder_spacing/2 = {0.5 * self.girder_spacing:g})"
+            )
 
     @property
     def rail_top(self) -> float:
         return self.end_carriage_height + self.girder_height + self.rail_height
+
+    @property
+    def flange_reach(self) -> float:
+        """Distance from a rail's axis to the outer face of its wheel's flanges (m)."""
+        return 0.5 * self.rail_width + self.flange_clearance + self.flange_thickness
 
     def mirror_planes(self) -> list[tuple[int, float]]:
         """(axis, coordinate) of the planes of symmetry the mesh is mirrored in: x = 0 always
@@ -126,13 +165,29 @@ class CraneGeometry:
         return [(x, y) for x in xs for y in ys]
 
 
+class FlangePairs(NamedTuple):
+    """The node pairs of one flange and the rail side facing it (gmsh node tags, sorted by the
+    flange node's tag). ``normal_x`` (±1) is the x component of the unit normal pointing from
+    the rail towards the flange (the rail side's outward normal); ``gap`` (m) is each pair's
+    initial gap, (x_flange − x_rail)·normal_x: the clearance, to round-off."""
+
+    wheel: int
+    inner: bool
+    flange_nodes: npt.NDArray[np.int64]
+    rail_nodes: npt.NDArray[np.int64]
+    normal_x: float
+    gap: npt.NDArray[np.float64]
+
+
 @dataclass
 class CraneMeshInfo:
-    """Names of the physical groups and the wheel/rail node pairs (gmsh node tags)."""
+    """Names of the physical groups, the wheel/rail node pairs and, with flanges, the
+    flange/rail-side node pairs (gmsh node tags)."""
 
     volume_groups: dict[str, int]
     surface_groups: dict[str, int]
     contact_pairs: list[tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]]
+    flange_pairs: list[FlangePairs] = field(default_factory=list)
 
 
 def _box(x0: float, y0: float, z0: float, dx: float, dy: float, dz: float) -> int:
@@ -145,12 +200,89 @@ _VOLUME_NAMES = ["bridge_implicit", "trolley_frame"] + [
     f"{p}_{k}" for k in range(1, 5) for p in ("zone", "wheel")
 ]
 _SURFACE_NAMES = ["clamped"] + [f"{p}_patch_{k}" for p in ("wheel", "rail") for k in range(1, 5)]
+#: The surface groups of a crane with flanges (after those of every crane): the inner faces of
+#: the flanges below the rail top, ``flange_patch_{in,out}_k``, and the rail side patches facing
+#: them, ``rail_side_patch_{in,out}_k``. ``in``: the flange between the rail and the crane's
+#: centre plane x = 0 (a mirror image of an inner flange is an inner flange); the wheel number
+#: last, as in every group of a wheel.
+FLANGE_SURFACE_NAMES = [
+    f"{p}_{side}_{k}"
+    for p in ("flange_patch", "rail_side_patch")
+    for side in ("in", "out")
+    for k in range(1, 5)
+]
+
+
+def _surface_names(geo: CraneGeometry) -> list[str]:
+    return _SURFACE_NAMES + (FLANGE_SURFACE_NAMES if geo.flanges else [])
+
+
+def _translation_x(dx: float) -> list[float]:
+    """The 4×4 affine map (row-major) x -> x + dx e_x."""
+    return [1, 0, 0, dx, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
+
+
+def _rectangle_x(x: float, y0: float, z0: float, dy: float, dz: float) -> int:
+    """An OCC rectangle in the plane x = const (to imprint on a face there)."""
+    occ = gmsh.model.occ
+    corners = [(y0, z0), (y0 + dy, z0), (y0 + dy, z0 + dz), (y0, z0 + dz)]
+    points = [occ.addPoint(x, y, z) for y, z in corners]
+    lines = [occ.addLine(points[i], points[(i + 1) % 4]) for i in range(4)]
+    return occ.addPlaneSurface([occ.addCurveLoop(lines)])
+
+
+def _flange_sides(geo: CraneGeometry, x: float) -> list[tuple[str, float]]:
+    """(name, s) of the flanges of the wheel on the rail at x: s = ±1 is the side of the rail
+    (the x direction from the rail to the flange); the inner flange faces x = 0."""
+    towards_centre = -1.0 if x > 0.0 else 1.0
+    return [("in", towards_centre), ("out", -towards_centre)]
+
+
+def _add_flanged_wheel(geo: CraneGeometry, x: float, y: float) -> tuple[int, list[int]]:
+    """The wheel block at (x, y) fused with its two flanges (one OCC volume), and the
+    rectangles to imprint on the flanges' inner faces below the rail top (not synchronised).
+
+    Each flange is a plate ``flange_thickness`` thick, its inner face ``flange_clearance`` off
+    the rail side, from ``flange_depth`` below the rail top up to the frame, joined to the
+    wheel by a web over the upper half of the wheel height (clear of the rail top).
+    """
+    occ = gmsh.model.occ
+    zt, hw = geo.rail_top, geo.wheel_height
+    y0, wl = y - 0.5 * geo.wheel_length, geo.wheel_length
+    wheel = _box(x - 0.5 * geo.wheel_width, y0, zt, geo.wheel_width, wl, hw)
+    parts, imprints = [], []
+    for _, s in _flange_sides(geo, x):
+        inner = x + s * (0.5 * geo.rail_width + geo.flange_clearance)  # the face at the rail
+        outer = x + s * geo.flange_reach
+        parts.append(
+            _box(
+                min(inner, outer),
+                y0,
+                zt - geo.flange_depth,
+                geo.flange_thickness,
+                wl,
+                geo.flange_depth + hw,
+            )
+        )
+        # The web spans the wheel to the flange's outer face: one volume, no sliver between.
+        parts.append(_box(min(x, outer), y0, zt + 0.5 * hw, abs(outer - x), wl, 0.5 * hw))
+        imprints.append(_rectangle_x(inner, y0, zt - geo.flange_depth, wl, geo.flange_depth))
+    out, _ = occ.fuse([(3, wheel)], [(3, t) for t in parts])
+    if len(out) != 1:
+        raise RuntimeError("crane geometry: a wheel and its flanges do not fuse into one body")
+    return out[0][1], imprints
 
 
 def _in_region(p: tuple[float, ...], planes: list[tuple[int, float]]) -> bool:
     """Whether the point lies in the meshed region: x ≥ 0 and, with a second plane, y ≤ its
     coordinate (the region holds wheel 3; the mirror images give wheels 1, 2 and 4)."""
     return all(p[a] >= c if a == 0 else p[a] <= c for a, c in planes)
+
+
+def _is_trolley(geo: CraneGeometry, tag: int) -> bool:
+    """Whether an OCC volume is part of the trolley: it rises above the rail top (the bridge
+    ends there), even where a flange reaches below it."""
+    return gmsh.model.occ.getBoundingBox(3, tag)[5] > geo.rail_top + 0.5 * geo.wheel_height
 
 
 def _cut_to_region(geo: CraneGeometry, planes: list[tuple[int, float]]) -> None:
@@ -164,9 +296,8 @@ def _cut_to_region(geo: CraneGeometry, planes: list[tuple[int, float]]) -> None:
     lo, hi = [-big] * 3, [big] * 3
     for axis, c in planes:
         (lo if axis == 0 else hi)[axis] = c
-    zt = geo.rail_top
     for trolley in (False, True):
-        vols = [dt for dt in occ.getEntities(3) if (occ.getCenterOfMass(*dt)[2] > zt) == trolley]
+        vols = [dt for dt in occ.getEntities(3) if _is_trolley(geo, dt[1]) == trolley]
         box = occ.addBox(*lo, *(b - a for a, b in zip(lo, hi, strict=True)))
         out, children = occ.fragment(vols, [(3, box)])
         pieces = {dt for kids in children[: len(vols)] for dt in kids}
@@ -245,16 +376,18 @@ def _mirror_mesh(
     gmsh.model.remove()
     gmsh.model.add("crane")
     entity: dict[tuple[int, str], int] = {}
-    for dim, names in ((3, _VOLUME_NAMES), (2, _SURFACE_NAMES)):
+    for dim, names in ((3, _VOLUME_NAMES), (2, _surface_names(geo))):
         for tag, name in enumerate(names, start=1):
             if (dim, name) not in groups:
                 raise RuntimeError(f"crane geometry: no mesh for the group {name}")
             entity[dim, name] = gmsh.model.addDiscreteEntity(dim, tag)
-    # The patch nodes belong to their patch surfaces (gmsh pairs them through these
-    # entities); every other node to the first volume.
+    # The wheel/rail patch nodes belong to their patch surfaces (gmsh pairs them through
+    # these entities: it pairs the nodes an entity owns, and a node has one owner); every
+    # other node, the flange patches' too (paired by coordinates, mesh_info), to the first
+    # volume.
     owner = np.zeros(uniq.size, dtype=np.int64)
     for (dim, name), ent in entity.items():
-        if dim == 2 and "patch" in name:
+        if dim == 2 and name in _SURFACE_NAMES and "patch" in name:
             owner[np.concatenate(groups[dim, name]).ravel()] = ent
     for ent in np.unique(owner):
         nodes = np.flatnonzero(owner == ent)
@@ -277,12 +410,39 @@ def _mirror_mesh(
         )
 
 
+def _flange_patches(geo: CraneGeometry, k: int, on_wheels: set[int]) -> dict[str, list[int]]:
+    """The surface groups of wheel k + 1's flange patches and the rail side patches facing
+    them (synchronised model), the former made periodic copies of the latter."""
+    eps = 1e-6
+    x, y = geo.wheel_centres()[k]
+    y0, y1 = y - 0.5 * geo.wheel_length, y + 0.5 * geo.wheel_length
+    zt = geo.rail_top
+    groups = {}
+
+    def faces_at(xp: float) -> list[int]:
+        box = (xp - eps, y0 - eps, zt - geo.flange_depth - eps, xp + eps, y1 + eps, zt + eps)
+        return [t for _, t in gmsh.model.getEntitiesInBoundingBox(*box, 2)]
+
+    for side, s in _flange_sides(geo, x):
+        x_rail = x + s * 0.5 * geo.rail_width
+        x_flange = x_rail + s * geo.flange_clearance
+        flange_face = [t for t in faces_at(x_flange) if t in on_wheels]
+        rail_face = [t for t in faces_at(x_rail) if t not in on_wheels]
+        if len(flange_face) != 1 or len(rail_face) != 1:
+            raise RuntimeError(f"crane geometry: flange patch {side} of wheel {k + 1} not found")
+        groups[f"flange_patch_{side}_{k + 1}"] = flange_face
+        groups[f"rail_side_patch_{side}_{k + 1}"] = rail_face
+        gmsh.model.mesh.setPeriodic(2, flange_face, rail_face, _translation_x(x_flange - x_rail))
+    return groups
+
+
 def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
     """Build and mesh the crane in the current gmsh session (rank 0 only; gmsh initialised).
 
     Physical volume groups: ``bridge_implicit``, ``zone_1..4`` (rail + girder near each wheel),
-    ``trolley_frame``, ``wheel_1..4``. Surface groups: ``clamped`` (end-carriage end faces),
-    ``wheel_patch_k``, ``rail_patch_k``.
+    ``trolley_frame``, ``wheel_1..4`` (with its flanges). Surface groups: ``clamped``
+    (end-carriage end faces), ``wheel_patch_k``, ``rail_patch_k`` and, with flanges,
+    :data:`FLANGE_SURFACE_NAMES`.
     """
     geo.validate()
     occ = gmsh.model.occ
@@ -319,6 +479,17 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
                 geo.wheel_length,
             )
         )
+        if geo.flanges:  # the rail sides facing the flanges
+            for _, s in _flange_sides(geo, x):
+                imprints.append(
+                    _rectangle_x(
+                        x + s * 0.5 * geo.rail_width,
+                        y - 0.5 * geo.wheel_length,
+                        zt - geo.flange_depth,
+                        geo.wheel_length,
+                        geo.flange_depth,
+                    )
+                )
     tool = [(3, z) for z in zones] + [(2, r) for r in imprints]
     _, children = occ.fragment([(3, b) for b in bridge], tool)
     # Keep only the pieces of the bridge: the parts of the zone boxes outside it are air.
@@ -336,18 +507,24 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
         geo.frame_length,
         geo.frame_thickness,
     )
-    wheels = [
-        _box(
-            x - 0.5 * geo.wheel_width,
-            y - 0.5 * geo.wheel_length,
-            zt,
-            geo.wheel_width,
-            geo.wheel_length,
-            geo.wheel_height,
-        )
-        for x, y in geo.wheel_centres()
-    ]
-    occ.fragment([(3, frame)], [(3, w) for w in wheels])
+    if geo.flanges:
+        flanged = [_add_flanged_wheel(geo, x, y) for x, y in geo.wheel_centres()]
+        wheels = [w for w, _ in flanged]
+        flange_imprints = [(2, r) for _, rects in flanged for r in rects]
+    else:
+        wheels = [
+            _box(
+                x - 0.5 * geo.wheel_width,
+                y - 0.5 * geo.wheel_length,
+                zt,
+                geo.wheel_width,
+                geo.wheel_length,
+                geo.wheel_height,
+            )
+            for x, y in geo.wheel_centres()
+        ]
+        flange_imprints = []
+    occ.fragment([(3, frame)], [(3, w) for w in wheels] + flange_imprints)
     planes = geo.mirror_planes()
     _cut_to_region(geo, planes)
     occ.synchronize()
@@ -364,7 +541,7 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
         vol_groups[f"wheel_{k + 1}"] = []
     for _, tag in gmsh.model.getEntities(3):
         c = com(3, tag)
-        if c[2] > zt + eps:  # trolley
+        if _is_trolley(geo, tag):  # a wheel (with its flanges: one volume) or the frame
             hit = [
                 k
                 for k, (x, y) in enumerate(centres)
@@ -388,6 +565,7 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
 
     # Surfaces: clamped end faces, wheel bottoms and rail patches (coincident, distinct).
     wheel_tags = {t for k in kept for t in vol_groups[f"wheel_{k + 1}"]}
+    on_wheels = {s for w in wheel_tags for _, s in gmsh.model.getBoundary([(3, w)], oriented=False)}
     surf_groups: dict[str, list[int]] = {
         "clamped": [
             t for _, t in gmsh.model.getEntities(2) if abs(abs(com(2, t)[0]) - half_l) < eps
@@ -407,20 +585,15 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
                 2,
             )
         ]
-        wheel_face = [
-            t
-            for t in at
-            if any(
-                t in [s for _, s in gmsh.model.getBoundary([(3, w)], oriented=False)]
-                for w in wheel_tags
-            )
-        ]
+        wheel_face = [t for t in at if t in on_wheels]
         rail_face = [t for t in at if t not in wheel_face]
         if len(wheel_face) != 1 or len(rail_face) != 1:
             raise RuntimeError(f"crane geometry: contact patch {k + 1} not found")
         surf_groups[f"wheel_patch_{k + 1}"] = wheel_face
         surf_groups[f"rail_patch_{k + 1}"] = rail_face
         gmsh.model.mesh.setPeriodic(2, wheel_face, rail_face, _IDENTITY)
+        if geo.flanges:
+            surf_groups |= _flange_patches(geo, k, on_wheels)
 
     # Graded sizes: fine within the zone boxes, coarse elsewhere.
     field = gmsh.model.mesh.field
@@ -429,8 +602,11 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
         b = field.add("Box")
         field.setNumber(b, "VIn", geo.fine)
         field.setNumber(b, "VOut", geo.size)
-        field.setNumber(b, "XMin", x - 0.5 * geo.girder_width)
-        field.setNumber(b, "XMax", x + 0.5 * geo.girder_width)
+        half = 0.5 * geo.girder_width
+        if geo.flanges:
+            half = max(half, geo.flange_reach)
+        field.setNumber(b, "XMin", x - half)
+        field.setNumber(b, "XMax", x + half)
         field.setNumber(b, "YMin", y - 0.5 * geo.wheel_length - m)
         field.setNumber(b, "YMax", y + 0.5 * geo.wheel_length + m)
         field.setNumber(b, "ZMin", hc + hg - depth)
@@ -488,7 +664,74 @@ def mesh_info() -> CraneMeshInfo:
         wheel_nodes = np.asarray(nodes, dtype=np.int64)
         order = np.argsort(wheel_nodes, kind="stable")
         contact_pairs.append((wheel_nodes[order], np.asarray(master_nodes, dtype=np.int64)[order]))
-    return CraneMeshInfo(volume_groups, surface_groups, contact_pairs)
+    flange_pairs = _flange_pairs(surface_groups)
+    return CraneMeshInfo(volume_groups, surface_groups, contact_pairs, flange_pairs)
+
+
+def _group_nodes(
+    surface_groups: dict[str, int], name: str
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]:
+    """Tags and coordinates of the nodes of a physical surface group of the current model."""
+    tags, xyz = gmsh.model.mesh.getNodesForPhysicalGroup(2, surface_groups[name])
+    return np.asarray(tags, dtype=np.int64), np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+
+
+def _flange_pairs(surface_groups: dict[str, int]) -> list[FlangePairs]:
+    """The flange/rail-side node pairs of the current model (none without flange groups).
+
+    Each flange patch is a copy of the rail side patch facing it translated in x (the periodic
+    constraint it was meshed with); its nodes are paired with the rail's by that translation,
+    one to one, to round-off. (gmsh's own correspondence cannot serve here: it pairs the nodes
+    an entity owns, and the rail side patch shares its top row with the rail top patch when
+    the wheel is as wide as the rail.)
+
+    Raises:
+        ScenarioError: some flange groups but not all, or patches that are not translated
+            copies of each other on the right sides of their rail.
+    """
+    have = [n for n in FLANGE_SURFACE_NAMES if n in surface_groups]
+    if not have:
+        return []
+    missing = [n for n in FLANGE_SURFACE_NAMES if n not in surface_groups]
+    if missing:
+        raise ScenarioError(f"crane mesh: flange groups without the surface group {missing[0]!r}")
+    out = []
+    for k in range(1, 5):
+        _, wheel_xyz = _group_nodes(surface_groups, f"wheel_patch_{k}")
+        axis = 0.5 * (wheel_xyz[:, 0].min() + wheel_xyz[:, 0].max())  # the rail's axis
+        for side in ("in", "out"):
+            f_tags, f_xyz = _group_nodes(surface_groups, f"flange_patch_{side}_{k}")
+            r_tags, r_xyz = _group_nodes(surface_groups, f"rail_side_patch_{side}_{k}")
+            tol = 1e-9 * (1.0 + np.abs(r_xyz).max())
+            where = f"crane mesh: flange patch {side} of wheel {k}"
+            if np.ptp(f_xyz[:, 0]) > tol or np.ptp(r_xyz[:, 0]) > tol:
+                raise ScenarioError(f"{where} or its rail side is not a plane x = const")
+            normal_x = 1.0 if r_xyz[0, 0] > axis else -1.0  # the rail side's outward normal
+            if (normal_x * axis < 0.0) != (side == "in"):
+                raise ScenarioError(f"{where} is on the other side of its rail")
+            # Match (y, z): the translation is along x.
+            dist = np.abs(f_xyz[:, None, 1:] - r_xyz[None, :, 1:]).max(axis=2)
+            match = np.argmin(dist, axis=1)
+            if (
+                f_tags.size != r_tags.size
+                or np.any(dist[np.arange(f_tags.size), match] > tol)
+                or np.unique(match).size != match.size
+            ):
+                raise ScenarioError(f"{where} is not a translated copy of its rail side patch")
+            gap = normal_x * (f_xyz[:, 0] - r_xyz[match, 0])
+            if np.any(gap < -tol):
+                raise ScenarioError(f"{where} lies inside its rail")
+            order = np.argsort(f_tags, kind="stable")
+            out.append(
+                FlangePairs(
+                    k, side == "in", f_tags[order], r_tags[match][order], normal_x, gap[order]
+                )
+            )
+    return out
+
+
+#: The geometry keys of the flanges, which sidecars written before them do not record.
+_FLANGE_KEYS = ("flanges", "flange_clearance", "flange_depth", "flange_thickness")
 
 
 def mesh_sidecar(path: str | Path) -> Path:
@@ -498,8 +741,10 @@ def mesh_sidecar(path: str | Path) -> Path:
 
 
 def read_mesh_sidecar(path: str | Path) -> dict[str, float] | None:
-    """The geometry (every :class:`CraneGeometry` field) a crane mesh was written from, read
-    from its sidecar (:func:`mesh_sidecar`), or None if it has none (not collective).
+    """The geometry (every :class:`CraneGeometry` field; ``flanges`` a bool) a crane mesh was
+    written from, read from its sidecar (:func:`mesh_sidecar`), or None if it has none (not
+    collective). A sidecar written before the flanges existed records none: their keys take
+    their defaults (flanges off).
 
     Raises:
         ScenarioError: the sidecar is not one written by :func:`write_crane_mesh`.
@@ -507,9 +752,19 @@ def read_mesh_sidecar(path: str | Path) -> dict[str, float] | None:
     side = mesh_sidecar(path)
     if not side.is_file():
         return None
+    defaults = asdict(CraneGeometry())
+    values: dict[str, float] = {}
     try:
         geometry = json.loads(side.read_text(encoding="utf-8"))["geometry"]
-        values = {f.name: float(geometry[f.name]) for f in fields(CraneGeometry)}
+        for f in fields(CraneGeometry):
+            value = geometry.get(f.name, defaults[f.name]) if f.name in _FLANGE_KEYS else None
+            value = geometry[f.name] if value is None else value
+            if isinstance(defaults[f.name], bool):
+                if not isinstance(value, bool):
+                    raise TypeError(f"{f.name} = {value!r} is not true or false")
+                values[f.name] = value
+            else:
+                values[f.name] = float(value)
     except (OSError, ValueError, KeyError, TypeError) as exc:
         raise ScenarioError(
             f"model.mesh: {side} is not the geometry record crane-fem mesh writes ({exc!r}); "
@@ -543,6 +798,7 @@ def write_crane_mesh(geo: CraneGeometry, path: str | Path) -> str:
     finally:
         gmsh.finalize()
     n_pairs = sum(w.size for w, _ in info.contact_pairs)
+    n_flange = sum(fp.flange_nodes.size for fp in info.flange_pairs)
     record = {
         "written_by": "crane-fem mesh",
         "mesh": path.name,
@@ -550,9 +806,15 @@ def write_crane_mesh(geo: CraneGeometry, path: str | Path) -> str:
         "nodes": n_nodes,
         "tetrahedra": n_tets,
         "wheel_rail_pairs": n_pairs,
+        "flange_rail_pairs": n_flange,
     }
     mesh_sidecar(path).write_text(json.dumps(record, indent=2) + "\n", encoding="utf-8")
-    return f"{n_nodes} nodes, {n_tets} tetrahedra, {n_pairs} wheel/rail node pairs"
+    flange = f", {n_flange} flange/rail-side node pairs" if geo.flanges else ""
+    return f"{n_nodes} nodes, {n_tets} tetrahedra, {n_pairs} wheel/rail node pairs{flange}"
+
+
+def _no_ids(*shape: int) -> npt.NDArray[np.int64]:
+    return np.zeros(shape, dtype=np.int64)
 
 
 @dataclass
@@ -561,11 +823,23 @@ class CraneMesh:
 
     ``pairs[k]`` = (wheel vertex, rail vertex) as global parent-mesh vertex ids; ``wheel[k]``
     (1–4) tells which wheel the pair belongs to. Identical on every rank.
+
+    With flanges (empty without): ``flange_pairs[j]`` = (flange vertex, rail vertex), global
+    parent-mesh vertex ids, a node-to-node lateral contact; ``flange_wheel[j]`` (1–4) its
+    wheel; ``flange_inner[j]`` whether it is the wheel's inner flange (between the rail and
+    x = 0); ``flange_normal[j]`` the unit normal (±e_x) pointing from the rail towards the
+    flange; ``flange_gap[j]`` (m) the initial gap, (x_flange − x_rail)·normal = the clearance
+    to round-off. The gap is g = g0 + (u_flange − u_rail)·normal ≥ 0. Identical on every rank.
     """
 
     tagged: TaggedMesh
     pairs: npt.NDArray[np.int64]
     wheel: npt.NDArray[np.int64]
+    flange_pairs: npt.NDArray[np.int64] = field(default_factory=lambda: _no_ids(0, 2))
+    flange_wheel: npt.NDArray[np.int64] = field(default_factory=lambda: _no_ids(0))
+    flange_inner: npt.NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    flange_normal: npt.NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)))
+    flange_gap: npt.NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
 
 
 def input_nodes_to_global_vertices(
@@ -647,4 +921,23 @@ def create_crane_mesh(
     tagged = TaggedMesh(
         data.mesh, data.cell_tags, data.facet_tags, info.volume_groups, info.surface_groups
     )
-    return CraneMesh(tagged, pairs, which)
+    crane = CraneMesh(tagged, pairs, which)
+    fps = info.flange_pairs
+    if fps:
+        n = [fp.flange_nodes.size for fp in fps]
+        crane.flange_pairs = np.column_stack(
+            [
+                input_nodes_to_global_vertices(
+                    data.mesh, np.concatenate([fp.flange_nodes for fp in fps]) - 1
+                ),
+                input_nodes_to_global_vertices(
+                    data.mesh, np.concatenate([fp.rail_nodes for fp in fps]) - 1
+                ),
+            ]
+        )
+        crane.flange_wheel = np.repeat([fp.wheel for fp in fps], n).astype(np.int64)
+        crane.flange_inner = np.repeat([fp.inner for fp in fps], n)
+        crane.flange_normal = np.zeros((sum(n), 3))
+        crane.flange_normal[:, 0] = np.repeat([fp.normal_x for fp in fps], n)
+        crane.flange_gap = np.concatenate([fp.gap for fp in fps])
+    return crane
