@@ -231,7 +231,7 @@ def _rectangle_x(x: float, y0: float, z0: float, dy: float, dz: float) -> int:
     return occ.addPlaneSurface([occ.addCurveLoop(lines)])
 
 
-def _flange_sides(geo: CraneGeometry, x: float) -> list[tuple[str, float]]:
+def _flange_sides(x: float) -> list[tuple[str, float]]:
     """(name, s) of the flanges of the wheel on the rail at x: s = ±1 is the side of the rail
     (the x direction from the rail to the flange); the inner flange faces x = 0."""
     towards_centre = -1.0 if x > 0.0 else 1.0
@@ -251,12 +251,12 @@ def _add_flanged_wheel(geo: CraneGeometry, x: float, y: float) -> tuple[int, lis
     y0, wl = y - 0.5 * geo.wheel_length, geo.wheel_length
     wheel = _box(x - 0.5 * geo.wheel_width, y0, zt, geo.wheel_width, wl, hw)
     parts, imprints = [], []
-    for _, s in _flange_sides(geo, x):
-        inner = x + s * (0.5 * geo.rail_width + geo.flange_clearance)  # the face at the rail
+    for _, s in _flange_sides(x):
+        face = x + s * (0.5 * geo.rail_width + geo.flange_clearance)  # the face at the rail
         outer = x + s * geo.flange_reach
         parts.append(
             _box(
-                min(inner, outer),
+                min(face, outer),
                 y0,
                 zt - geo.flange_depth,
                 geo.flange_thickness,
@@ -266,7 +266,7 @@ def _add_flanged_wheel(geo: CraneGeometry, x: float, y: float) -> tuple[int, lis
         )
         # The web spans the wheel to the flange's outer face: one volume, no sliver between.
         parts.append(_box(min(x, outer), y0, zt + 0.5 * hw, abs(outer - x), wl, 0.5 * hw))
-        imprints.append(_rectangle_x(inner, y0, zt - geo.flange_depth, wl, geo.flange_depth))
+        imprints.append(_rectangle_x(face, y0, zt - geo.flange_depth, wl, geo.flange_depth))
     out, _ = occ.fuse([(3, wheel)], [(3, t) for t in parts])
     if len(out) != 1:
         raise RuntimeError("crane geometry: a wheel and its flanges do not fuse into one body")
@@ -280,8 +280,8 @@ def _in_region(p: tuple[float, ...], planes: list[tuple[int, float]]) -> bool:
 
 
 def _is_trolley(geo: CraneGeometry, tag: int) -> bool:
-    """Whether an OCC volume is part of the trolley: it rises above the rail top (the bridge
-    ends there), even where a flange reaches below it."""
+    """Whether an OCC volume is part of the trolley: it rises half a wheel height above the
+    rail top, where the bridge ends (a flanged wheel also reaches below it)."""
     return gmsh.model.occ.getBoundingBox(3, tag)[5] > geo.rail_top + 0.5 * geo.wheel_height
 
 
@@ -423,7 +423,7 @@ def _flange_patches(geo: CraneGeometry, k: int, on_wheels: set[int]) -> dict[str
         box = (xp - eps, y0 - eps, zt - geo.flange_depth - eps, xp + eps, y1 + eps, zt + eps)
         return [t for _, t in gmsh.model.getEntitiesInBoundingBox(*box, 2)]
 
-    for side, s in _flange_sides(geo, x):
+    for side, s in _flange_sides(x):
         x_rail = x + s * 0.5 * geo.rail_width
         x_flange = x_rail + s * geo.flange_clearance
         flange_face = [t for t in faces_at(x_flange) if t in on_wheels]
@@ -480,7 +480,7 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
             )
         )
         if geo.flanges:  # the rail sides facing the flanges
-            for _, s in _flange_sides(geo, x):
+            for _, s in _flange_sides(x):
                 imprints.append(
                     _rectangle_x(
                         x + s * 0.5 * geo.rail_width,
@@ -628,9 +628,10 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
 
 
 def mesh_info() -> CraneMeshInfo:
-    """Groups and wheel/rail node pairs of the crane mesh in the current gmsh model (built by
-    :func:`build_crane_model` or read from a ``.msh`` file: the physical names and the
-    periodic node correspondence are stored in it)."""
+    """Groups, wheel/rail node pairs and flange/rail-side node pairs (none without flanges) of
+    the crane mesh in the current gmsh model (built by :func:`build_crane_model` or read from a
+    ``.msh`` file: the physical names, the wheel/rail periodic node correspondence and the
+    flange patches' coordinates are stored in it)."""
     names = {
         (dim, tag): gmsh.model.getPhysicalName(dim, tag)
         for dim, tag in gmsh.model.getPhysicalGroups()
@@ -757,8 +758,10 @@ def read_mesh_sidecar(path: str | Path) -> dict[str, float] | None:
     try:
         geometry = json.loads(side.read_text(encoding="utf-8"))["geometry"]
         for f in fields(CraneGeometry):
-            value = geometry.get(f.name, defaults[f.name]) if f.name in _FLANGE_KEYS else None
-            value = geometry[f.name] if value is None else value
+            if f.name in _FLANGE_KEYS:
+                value = geometry.get(f.name, defaults[f.name])
+            else:
+                value = geometry[f.name]
             if isinstance(defaults[f.name], bool):
                 if not isinstance(value, bool):
                     raise TypeError(f"{f.name} = {value!r} is not true or false")
