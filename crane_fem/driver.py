@@ -220,13 +220,13 @@ def run_scenario(
         summary["status"] = "interrupted"
         summary["diagnosis"] = str(exc)
         raise
-    except BaseException as exc:  # a refused step or a bug: not "running"
-        summary["status"] = "failed"
-        summary["diagnosis"] = str(exc) or type(exc).__name__
-        raise
     except UnstableRunError as exc:
         summary["status"] = "unstable"
         summary["diagnosis"] = str(exc)
+        raise
+    except BaseException as exc:  # a refused step or a bug: not "running"
+        summary["status"] = "failed"
+        summary["diagnosis"] = str(exc) or type(exc).__name__
         raise
     finally:
         bar.close()
