@@ -122,23 +122,16 @@ def _floors(ref: RunResult) -> dict[str, float]:
     return floors
 
 
-#: Two ranks: the measured points' accelerations, Δv/ΔT, turn the velocities' round-off into
-#: 1.2e-10 of the largest acceleration between two uninterrupted two-rank runs of the quick
-#: crane (measured): they are held to ten times that.
-ACC_RTOL = 1e-9
-ACCELERATIONS = ("_ax", "_ay", "_az")
-
-
 def _same_histories(h1: dict, h2: dict) -> None:
+    """Bit for bit serially; to RTOL on two ranks, each column against its scale
+    (conftest.assert_same_histories: the measured points' accelerations, Δv/ΔT, against the
+    velocities' scale over ΔT, the scale of their round-off)."""
     assert h1.keys() == h2.keys()
     if RTOL == 0.0:
         differ = [c for c in h1 if not np.array_equal(h1[c], h2[c])]
         assert not differ, differ
         return
-    acc = [c for c in h1 if c.endswith(ACCELERATIONS)]
-    assert_same_histories(*({c: h[c] for c in h if c not in acc} for h in (h1, h2)), RTOL)
-    if acc:
-        assert_same_histories(*({c: h[c] for c in acc} for h in (h1, h2)), ACC_RTOL)
+    assert_same_histories(h1, h2, RTOL)
 
 
 def _check_restart(
