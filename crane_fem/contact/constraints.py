@@ -1,4 +1,5 @@
-"""Gap relations g = g0 + L u of unilateral contact points, distributed over MPI ranks."""
+"""Gap relations g = g0 + L u of unilateral contact points, and the tangential rows of the
+frictional ones, distributed over MPI ranks."""
 
 from __future__ import annotations
 
@@ -9,10 +10,50 @@ import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 
-__all__ = ["ContactSet"]
+__all__ = ["ContactSet", "TangentRows"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class TangentRows:
+    """The tangential velocity rows v_t = T V of frictional contact points: n_t rows (one or
+    two per point, orthonormal to each other and to the point's normal row), terms split by
+    DOF owner as :class:`ContactSet`'s.
+
+    Attributes:
+        point: (n_t,) the contact point of each row (global numbering, identical on all ranks);
+            a point's rows are consecutive.
+        rows, dofs, coeffs: this rank's terms: row (0..n_t−1), owned local DOF, coefficient.
+    """
+
+    point: IntArray
+    rows: IntArray
+    dofs: IntArray
+    coeffs: FloatArray
+
+    @property
+    def n(self) -> int:
+        return int(self.point.size)
+
+    def subset(self, keep: npt.NDArray[np.bool_]) -> TangentRows:
+        """The rows of the points where ``keep`` (p,) is True, points renumbered in order."""
+        new_point = np.cumsum(keep) - 1
+        keep_rows = keep[self.point]
+        new_row = np.cumsum(keep_rows) - 1
+        terms = keep_rows[self.rows]
+        return TangentRows(
+            new_point[self.point[keep_rows]].astype(np.int64),
+            new_row[self.rows[terms]].astype(np.int64),
+            self.dofs[terms],
+            self.coeffs[terms],
+        )
+
+    @classmethod
+    def empty(cls) -> TangentRows:
+        z = np.zeros(0, dtype=np.int64)
+        return cls(z, z.copy(), z.copy(), np.zeros(0))
 
 
 @dataclass
@@ -30,6 +71,8 @@ class ContactSet:
         group: index into ``group_names`` of each point (for per-contact output).
         group_names: one name per ``[[contact]]`` entry.
         tol: gap below which a point counts as closed, m (0: g ≤ 0).
+        mu: Coulomb friction coefficient of each point (p,), or None: frictionless.
+        tangents: the tangential rows of the points with ``mu > 0`` (None: none).
     """
 
     comm: MPI.Comm
@@ -40,10 +83,22 @@ class ContactSet:
     group: IntArray
     group_names: list[str]
     tol: float = 0.0
+    mu: FloatArray | None = None
+    tangents: TangentRows | None = None
     _buf: FloatArray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         self._buf = np.zeros(2 * self.p)
+
+    @property
+    def friction(self) -> FloatArray:
+        """The friction coefficient of each point (p,), zeros when frictionless."""
+        return np.zeros(self.p) if self.mu is None else self.mu
+
+    @property
+    def tangent_rows(self) -> TangentRows:
+        """The tangential rows (empty when frictionless)."""
+        return TangentRows.empty() if self.tangents is None else self.tangents
 
     def subset(self, keep: npt.NDArray[np.bool_]) -> ContactSet:
         """The points where ``keep`` (p,) is True, renumbered in order (not collective)."""
@@ -58,6 +113,8 @@ class ContactSet:
             self.group[keep],
             self.group_names,
             self.tol,
+            None if self.mu is None else self.mu[keep],
+            None if self.tangents is None else self.tangents.subset(keep),
         )
 
     def closed(self, gaps: FloatArray) -> npt.NDArray[np.bool_]:
@@ -134,9 +191,35 @@ class ContactSet:
         z = np.zeros(0, dtype=np.int64)
         return cls(comm, np.zeros(0), z, z.copy(), np.zeros(0), z.copy(), [])
 
+    def with_tangents(self) -> ContactSet:
+        """The normal rows followed by the tangential rows as one row set (p + n_t rows; its
+        :meth:`delassus` is the Delassus operator of the frictional problem). Not collective."""
+        t = self.tangent_rows
+        return ContactSet(
+            self.comm,
+            np.zeros(self.p + t.n),
+            np.concatenate([self.rows, self.p + t.rows]).astype(np.int64),
+            np.concatenate([self.dofs, t.dofs]).astype(np.int64),
+            np.concatenate([self.coeffs, t.coeffs]),
+            np.zeros(self.p + t.n, dtype=np.int64),
+            ["rows"],
+        )
+
     @classmethod
     def stack(cls, first: ContactSet, second: ContactSet) -> ContactSet:
         """Rows of ``first`` then rows of ``second`` (same communicator)."""
+        mu = None
+        if first.mu is not None or second.mu is not None:
+            mu = np.concatenate([first.friction, second.friction])
+        tangents = None
+        if first.tangents is not None or second.tangents is not None:
+            a, b = first.tangent_rows, second.tangent_rows
+            tangents = TangentRows(
+                np.concatenate([a.point, b.point + first.p]).astype(np.int64),
+                np.concatenate([a.rows, b.rows + a.n]).astype(np.int64),
+                np.concatenate([a.dofs, b.dofs]).astype(np.int64),
+                np.concatenate([a.coeffs, b.coeffs]),
+            )
         return cls(
             first.comm,
             np.concatenate([first.g0, second.g0]),
@@ -146,4 +229,6 @@ class ContactSet:
             np.concatenate([first.group, second.group + len(first.group_names)]),
             [*first.group_names, *second.group_names],
             max(first.tol, second.tol),
+            mu,
+            tangents,
         )

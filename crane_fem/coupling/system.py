@@ -343,6 +343,7 @@ class CoupledSystem:
             + e["contact_dissipated"]
             + e["numerical_dissipated"]
             + e["interface_dissipated"]
+            + e["friction_dissipated"]
         )
         n_g = self.n_gamma
         E, I = self.E, self.I  # noqa: E741
@@ -408,10 +409,13 @@ class CoupledSystem:
         E = self.E
         assert E is not None
         s = out.sums
-        red = self.sum([s[kx.EXT], s[kx.DAMP], s[kx.CONTACT], s[kx.LINK], *E.local_energies()])
+        red = self.sum(
+            [s[kx.EXT], s[kx.DAMP], s[kx.CONTACT], s[kx.LINK], *E.local_energies(), s[kx.FRICTION]]
+        )
         self.acc["external_work"] += red[0]
         self.acc["damping_dissipated"] += red[1]
         self.acc["contact_dissipated"] -= red[2]
+        self.acc["friction_dissipated"] -= red[6]
         self.e_kin, self.e_int = float(red[4]), float(red[5])
         return float(red[3])
 

@@ -66,6 +66,86 @@ def empty_operator(n_g: int) -> kx.InterfaceOp:
 
 
 @dataclass(frozen=True)
+class _Friction:
+    """The kernel's friction arrays (crane_fem.kernels.zone.Zone)."""
+
+    nt: int
+    rows: IntArray
+    dofs: IntArray
+    coeffs: FloatArray
+    mu: FloatArray
+    first: IntArray
+    count: IntArray
+    W_nt: FloatArray
+    W_tt: FloatArray
+    local: bool
+    iso: npt.NDArray[np.bool_]
+
+
+#: A point's Delassus block is taken as w I (closed form) when it is within this of it,
+#: relative to w: the lumped masses of a node's components agree to round-off.
+ISOTROPY_TOL = 1e-13
+
+
+def _friction_arrays(
+    contacts: ContactSet, minv: FloatArray, W_cc: FloatArray, interface: ContactSet
+) -> _Friction:
+    """The tangential rows of the frictional contact points and their Delassus blocks
+    (collective: the Delassus operator is reduced over the ranks).
+
+    Raises:
+        CraneFemError: a frictional point on a DOF of an interface row (not supported: the
+            interface rows are solved without the tangential ones).
+    """
+    pc = contacts.p
+    t = contacts.tangent_rows
+    nt = t.n
+    first = np.full(pc, -1, dtype=np.int64)
+    count = np.zeros(pc, dtype=np.int64)
+    if nt:
+        np.add.at(count, t.point, 1)
+        starts = np.flatnonzero(np.r_[True, t.point[1:] != t.point[:-1]])
+        first[t.point[starts]] = starts
+    mu = np.ascontiguousarray(contacts.friction, dtype=np.float64)
+    if not nt:
+        z, none = np.zeros(0, dtype=np.int64), np.zeros(pc, dtype=bool)
+        W_nt, W_tt = np.zeros((pc, 0)), np.zeros((0, 0))
+        return _Friction(0, z, z, np.zeros(0), mu, first, count, W_nt, W_tt, True, none)
+    comm = contacts.comm
+    shared = np.intersect1d(interface.dofs, np.concatenate([contacts.dofs, t.dofs])).size
+    if comm.allreduce(shared, op=MPI.SUM):
+        raise CraneFemError(
+            "explicit zone: friction on contact points that share DOFs with interface rows is "
+            "not supported"
+        )
+    Wf = contacts.with_tangents().delassus(minv)
+    W_nt = np.ascontiguousarray(Wf[:pc, pc:])
+    W_tt = np.ascontiguousarray(Wf[pc:, pc:])
+    point = np.r_[np.arange(pc), t.point]
+    other = point[:, None] != point[None, :]
+    local = not bool(np.any(Wf[other] != 0.0))
+    iso = np.zeros(pc, dtype=bool)
+    for c in range(pc):
+        rows = np.flatnonzero(point == c)
+        block = Wf[np.ix_(rows, rows)]
+        w = W_cc[c, c]
+        iso[c] = bool(np.max(np.abs(block - w * np.eye(rows.size))) <= ISOTROPY_TOL * w)
+    return _Friction(
+        nt,
+        t.rows.astype(np.int64),
+        t.dofs.astype(np.int64),
+        t.coeffs.astype(np.float64),
+        mu,
+        first,
+        count,
+        W_nt,
+        W_tt,
+        local,
+        iso,
+    )
+
+
+@dataclass(frozen=True)
 class _Halo:
     """Neighbour ranks and, per neighbour, the owned DOFs sent and the ghost DOFs received."""
 
@@ -178,7 +258,8 @@ class ExplicitZone:
         W_cc = np.ascontiguousarray(W[n_g:, n_g:])
         W_ec = np.ascontiguousarray(W[:n_g, n_g:])
         st = self.stack
-        c_dofs = np.unique(st.dofs).astype(np.int64)
+        fr = _friction_arrays(contacts, model.minv, W_cc, interface)
+        c_dofs = np.unique(np.concatenate([st.dofs, fr.dofs])).astype(np.int64)
         self._comm = model.comm.Dup()
         nbrs, si, ri = halo.neighbours, halo.send_idx, halo.recv_idx
         self.zone = kx.Zone(
@@ -220,6 +301,18 @@ class ExplicitZone:
             send_idx=si,
             recv_ptr=halo.recv_ptr,
             recv_idx=ri,
+            nt=fr.nt,
+            f_row=fr.rows,
+            f_dof=fr.dofs,
+            f_coeff=fr.coeffs,
+            f_pos=np.searchsorted(c_dofs, fr.dofs).astype(np.int64),
+            mu=fr.mu,
+            t_first=fr.first,
+            t_count=fr.count,
+            W_nt=fr.W_nt,
+            W_tt=fr.W_tt,
+            fric_local=fr.local,
+            iso=fr.iso,
         )
         n_loc = n_loc_b * bs
         u = np.zeros(n_loc)
@@ -238,13 +331,17 @@ class ExplicitZone:
             vold_c=np.zeros(n_c),
             jump=np.zeros(n_c),
             jump_c=np.zeros(n_c),
-            red=np.zeros(3 * p),
-            red_out=np.zeros(3 * p),
+            red=np.zeros(3 * p + fr.nt),
+            red_out=np.zeros(3 * p + fr.nt),
             lam=np.zeros(p),
             qe=np.zeros(n_g),
             qc=np.zeros(p - n_g),
             work=np.zeros(n_g),
             closed=np.zeros(p - n_g, dtype=bool),
+            jump_f=np.zeros(n_c),
+            qt=np.zeros(fr.nt),
+            lam_t=np.zeros(fr.nt),
+            fric_info=np.zeros(2),
             send_buf=np.zeros(si.size),
             recv_buf=np.zeros(ri.size),
             requests=create_requests(2 * nbrs.size),
@@ -340,12 +437,13 @@ class ExplicitZone:
             active=np.zeros(n, dtype=bool),
             group_impulse=np.zeros((n, self.zone.n_groups)),
             group_gap=np.zeros((n, self.zone.n_groups)),
-            sums=np.zeros(6),
+            sums=np.zeros(7),
             impulse_trap=np.zeros(n_g),
             impulse_sum=np.zeros(n_g),
             impulses=np.zeros((n if ctl.keep_impulses else 0, n_g)),
             w=np.zeros(n_g),
-            flags=np.zeros(3, dtype=np.int64),
+            flags=np.zeros(4, dtype=np.int64),
+            lam_t=np.zeros(self.zone.nt),
         )
         if ctl.mode == kx.SOLVED and op is None:
             raise ValueError("solved interface rows need an interface operator")
@@ -355,6 +453,13 @@ class ExplicitZone:
         if out.flags[kx.LCP_ERROR]:
             raise ValueError(
                 "contact Delassus operator is singular: two active constraints are redundant"
+            )
+        if out.flags[kx.FRICTION_ERROR]:
+            point, res = int(self.state.fric_info[0]), float(self.state.fric_info[1])
+            group = self.contacts.group_names[int(self.contacts.group[point])]
+            raise CraneFemError(
+                f"explicit zone: the frictional contact problem did not converge at contact "
+                f"point {point} of '{group}' (residual {res:.1e} of the impulse scale)"
             )
         return out
 

@@ -12,10 +12,23 @@ start), state (U, V_{j−1/2}) on the owned DOFs and their ghosts:
                 bilateral rows (the linear probes of EC and PH)
     V_{j+1/2} = V_free + M⁻¹ Lᵀ Λ                                                  (1.4)
 
+With Coulomb friction (THEORY.md §7) the frictional points add their tangential rows T
+(n_t of them, stacked after the 3p values of the reduction: T V_free), and their impulses
+(Λ_n, Λ_t) come from the frictional contact problem (crane_fem.kernels.friction) in place of
+the LCP; (1.4) takes Lᵀ Λ_n + Tᵀ Λ_t. Without friction (n_t = 0) every operation is that of
+the frictionless kernel.
+
+Energy (per micro step, exact): with V̄ = ½ (V_{j−1/2} + V_{j+1/2}),
+½ V_{j+1/2}ᵀ M V_{j+1/2} − ½ V_{j−1/2}ᵀ M V_{j−1/2} = V̄ᵀ M (V_{j+1/2} − V_{j−1/2})
+= h V̄ᵀ (F − K U_j − C V_{j−1/2}) + V̄ᵀ Lᵀ Λ + V̄ᵀ Tᵀ Λ_t, so the impulses' work is booked
+with the mean velocity: ``CONTACT`` += Λ_n · L V̄ and ``FRICTION`` += Λ_t · T V̄ =
+Λ_t · ½ (v_t⁻ + v_t⁺) (v_t⁻ = T V_{j−1/2}, v_t⁺ = T V_{j+1/2}); the balance then closes to
+round-off with friction_dissipated = −Σ Λ_t · ½ (v_t⁻ + v_t⁺) (crane_fem.energy).
+
 The stiffness product is fused with (1.2) and the energy sums in one pass over K (block CSR,
 local columns: owned, then ghost). Under MPI, one halo exchange of U per micro step (of V too
 when C has a stiffness part), overlapped with the rows that need no ghost, and one allreduce
-of the 3p stacked-row values. Everything here sees arrays only: the owner
+of the 3p stacked-row values (3p + n_t with friction). Everything here sees arrays only: the owner
 (:class:`crane_fem.integrators.explicit_zone.ExplicitZone`) unpacks the PETSc and dolfinx
 objects once. :mod:`crane_fem.kernels.reference` is its NumPy twin, for the tests.
 
@@ -37,6 +50,8 @@ from crane_fem.kernels.zone import (
     CONTACT,
     DAMP,
     EXT,
+    FRICTION,
+    FRICTION_ERROR,
     GC_WORK,
     IMPOSED,
     LAW_BILATERAL,
@@ -60,6 +75,8 @@ __all__ = [
     "CONTACT",
     "DAMP",
     "EXT",
+    "FRICTION",
+    "FRICTION_ERROR",
     "GC_WORK",
     "IMPOSED",
     "LAW_BILATERAL",
@@ -155,18 +172,22 @@ def _micro(
     t_row, t_dof, t_coeff, t_pos = z.t_row, z.t_dof, z.t_coeff, z.t_pos
     c_dofs, vold_c, jump, jump_c = z.c_dofs, st.vold_c, st.jump, st.jump_c
     red = st.red
-    for r in range(3 * p):
+    nt = z.nt
+    for r in range(3 * p + nt):
         red[r] = 0.0
     for t in range(t_row.size):
         r, d, cf = t_row[t], t_dof[t], t_coeff[t]
         red[r] += cf * u[d]
         red[p + r] += cf * vold_c[t_pos[t]]
         red[2 * p + r] += cf * vh[d]
+    f_row, f_dof, f_coeff, f_pos = z.f_row, z.f_dof, z.f_coeff, z.f_pos
+    for t in range(f_row.size):  # the tangential rows: T V_free, in the same reduction
+        red[3 * p + f_row[t]] += f_coeff[t] * vh[f_dof[t]]
     g = st.red_out
     if z.nranks > 1:
         out.flags[MPI_ERROR] |= allreduce_sum(red, g, z.mpi)
     else:
-        for r in range(3 * p):
+        for r in range(3 * p + nt):
             g[r] = red[r]
     gaps = out.gaps
     for r in range(p):
@@ -176,7 +197,11 @@ def _micro(
     for c in range(pc):
         closed[c] = gaps[n_g + c] <= z.tol
         st.qc[c] = g[2 * p + n_g + c]
-    # Impulses.
+    lam_t = st.lam_t
+    for k in range(nt):
+        st.qt[k] = g[3 * p + k]
+        lam_t[k] = 0.0
+    # Impulses (with friction, contacts_exact solves the frictional problem).
     lam_c = lam[n_g:]
     if ctl.mode == SOLVED:
         for i in range(n_g):
@@ -203,25 +228,31 @@ def _micro(
     else:
         contacts_exact(z, st, closed, lam_c, out.flags)
     # V_{j+1/2} = V_free + M⁻¹ Lᵀ Λ at the constraint DOFs, and the work of Λ.
+    jump_f = st.jump_f
     for c in range(c_dofs.size):
         jump[c] = 0.0
         jump_c[c] = 0.0
+        jump_f[c] = 0.0
     for t in range(t_row.size):
         r = t_row[t]
         jump[t_pos[t]] += t_coeff[t] * lam[r]
         if r >= n_g:
             jump_c[t_pos[t]] += t_coeff[t] * lam[r]
+    for t in range(f_row.size):
+        jump_f[f_pos[t]] += f_coeff[t] * lam_t[f_row[t]]
     contact_w = 0.0
     link_w = 0.0
+    fric_w = 0.0
     minv, mass, alpha, beta = z.minv, z.mass, z.alpha, z.beta
     for c in range(c_dofs.size):
         d = c_dofs[c]
-        dv = minv[d] * jump[c]
+        dv = minv[d] * jump[c] if nt == 0 else minv[d] * (jump[c] + jump_f[c])
         v_free = vh[d]
         vh[d] = v_free + dv
         v_mid = 0.5 * (vold_c[c] + vh[d])
         contact_w += v_mid * jump_c[c]
         link_w += v_mid * (jump[c] - jump_c[c])
+        fric_w += v_mid * jump_f[c]
         # The sums of free_rows took V_free for V_{j+1/2}: add the impulse's part.
         cv = alpha * mass[d] * vold_c[c]
         if beta != 0.0:
@@ -232,6 +263,7 @@ def _micro(
     out.sums[DAMP] += 0.5 * h * damp
     out.sums[CONTACT] += contact_w
     out.sums[LINK] += link_w
+    out.sums[FRICTION] += fric_w
     active = False
     for c in range(pc):
         if lam_c[c] > 0.0:
@@ -280,6 +312,8 @@ def _micro(
             st.v_int[i] = 0.5 * (st.v_int[i] + vh[i])
         for r in range(p):
             out.lam[r] = lam[r]
+        for k in range(nt):
+            out.lam_t[k] = lam_t[k]
         for i in range(n_g):
             out.w[i] = st.w_prev[i]
 

@@ -8,6 +8,7 @@ import numba
 import numpy as np
 import numpy.typing as npt
 
+from crane_fem.kernels.friction import contacts_friction
 from crane_fem.kernels.lcp import lcp_exact
 from crane_fem.kernels.zone import LCP_ERROR, InterfaceOp, Zone, ZoneState
 
@@ -75,7 +76,12 @@ def contacts_exact(
     z: Zone, st: ZoneState, closed: BoolArray, lam_c: FloatArray, flags: IntArray
 ) -> None:
     """Λ_c on the closed points from 0 ≤ Λ ⟂ q_c + W_cc Λ ≥ 0 (closed form when W_cc is
-    diagonal, the exact small LCP otherwise); Λ_c = 0 on open points."""
+    diagonal, the exact small LCP otherwise); Λ_c = 0 on open points. With friction
+    (tangential rows), Λ_c and the tangential impulses from the frictional problem
+    (crane_fem.kernels.friction)."""
+    if z.nt > 0:
+        contacts_friction(z, st, closed, lam_c, flags)
+        return
     pc = closed.size
     for c in range(pc):
         lam_c[c] = 0.0

@@ -12,10 +12,12 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse
 
+from crane_fem.contact.friction import coulomb_point, solve_coulomb
 from crane_fem.contact.lcp import solve_lcp, solve_mixed_lcp_blocks
 from crane_fem.kernels import explicit as kx
+from crane_fem.kernels.friction import TOL
 
-__all__ = ["operator_matrix", "run_steps"]
+__all__ = ["friction_impulses", "operator_matrix", "run_steps"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -38,6 +40,48 @@ def operator_matrix(op: kx.InterfaceOp, k: float) -> FloatArray:
     return out
 
 
+def friction_impulses(
+    z: kx.Zone, closed: npt.NDArray[np.bool_], q_c: FloatArray, q_t: FloatArray
+) -> tuple[FloatArray, FloatArray, float]:
+    """The normal and tangential impulses of the frictional contact problem (the twin of
+    ``contacts_friction``, with crane_fem.contact.friction), and the largest residual."""
+    pc = q_c.size
+    lam_c, lam_t = np.zeros(pc), np.zeros(z.nt)
+    Wf = np.block([[z.W_cc, z.W_nt], [z.W_nt.T, z.W_tt]])
+    qf = np.concatenate([q_c, q_t])
+
+    def rows_of(c: int) -> list[int]:
+        k0, nk = int(z.t_first[c]), int(z.t_count[c])
+        return [c, *range(pc + k0, pc + k0 + nk)]
+
+    def scatter(rows: list[int], r: FloatArray) -> None:
+        for i, row in enumerate(rows):
+            if row < pc:
+                lam_c[row] = r[i]
+            else:
+                lam_t[row - pc] = r[i]
+
+    worst = 0.0
+    groups = [[int(c)] for c in np.flatnonzero(closed)]
+    if not z.fric_local and groups:
+        groups = [[c for g in groups for c in g]]
+    for pts in groups:
+        rows = [row for c in pts for row in rows_of(c)]
+        if len(pts) == 1 and z.t_count[pts[0]] == 0:
+            c = pts[0]
+            lam_c[c] = max(0.0, -q_c[c] / z.W_cc[c, c])
+            continue
+        if len(pts) == 1 and z.iso[pts[0]]:
+            c = pts[0]
+            scatter(rows, coulomb_point(qf[rows], float(z.W_cc[c, c]), float(z.mu[c])))
+            continue
+        ptr = np.cumsum([0, *(1 + int(z.t_count[c]) for c in pts)])
+        r, res, _ = solve_coulomb(Wf[np.ix_(rows, rows)], qf[rows], ptr, z.mu[pts])
+        worst = max(worst, res)
+        scatter(rows, r)
+    return lam_c, lam_t, worst
+
+
 def run_steps(
     z: kx.Zone, op: kx.InterfaceOp, st: kx.ZoneState, ctl: kx.Steps, out: kx.StepsOut
 ) -> None:
@@ -48,6 +92,7 @@ def run_steps(
     n_loc = st.u.size
     K = scipy.sparse.bsr_matrix((z.data, z.indices, z.indptr), shape=(n, n_loc)).tocsr()
     L = scipy.sparse.csr_matrix((z.t_coeff, (z.t_row, z.t_dof)), shape=(p, n))
+    T = scipy.sparse.csr_matrix((z.f_coeff, (z.f_row, z.f_dof)), shape=(z.nt, n))
     pc = p - n_g
     out.sums[:] = 0.0
     out.impulse_trap[:] = 0.0
@@ -70,6 +115,7 @@ def run_steps(
         closed = gaps[n_g:] <= z.tol
         q_c = lq[n_g:].copy()
         lam = np.zeros(p)
+        lam_t = np.zeros(z.nt)
         if ctl.mode == kx.IMPOSED:
             lam[:n_g] = z.dt * (ctl.ic[jj, 0] * ctl.imposed[0] + ctl.ic[jj, 1] * ctl.imposed[1])
             q_c += z.W_ec.T @ lam[:n_g]
@@ -88,17 +134,23 @@ def run_steps(
             lam[:n_g], lam[n_g:] = solve_mixed_lcp_blocks(solve, z.W_ec, z.W_cc, q_e, q_c, closed)
         elif pc:
             lam[n_g:] = solve_lcp(z.W_cc, q_c, closed, bool(z.cc_diagonal))
+        if z.nt and ctl.law == kx.LAW_LCP:  # (with friction the interface rows couple to none)
+            lam[n_g:], lam_t, res = friction_impulses(z, closed, q_c, T @ v_free)
+            if res > TOL:
+                out.flags[kx.FRICTION_ERROR] = 1
         jump = L.T @ lam
         lam_c = lam.copy()
         lam_c[:n_g] = 0.0
         jump_c = L.T @ lam_c
-        v_new = v_free + z.minv * jump
+        jump_f = T.T @ lam_t
+        v_new = v_free + z.minv * (jump + jump_f)
         vh[:] = v_new
         v_mid = 0.5 * (v_old + v_new)
         out.sums[kx.EXT] += h * float(v_mid @ f)
         out.sums[kx.DAMP] += h * float(v_mid @ cv)
         out.sums[kx.CONTACT] += float(v_mid @ jump_c)
         out.sums[kx.LINK] += float(v_mid @ (jump - jump_c))
+        out.sums[kx.FRICTION] += float(v_mid @ jump_f)
         out.active[jj] = bool(np.any(lam[n_g:] > 0.0))
         grp = np.arange(z.n_groups)[:, None] == z.c_group[None, :]
         out.group_impulse[jj] = grp @ lam[n_g:]
@@ -121,4 +173,6 @@ def run_steps(
             st.v_int[:] = v_mid
             out.lam[:] = lam
             out.gaps[:] = gaps
+            if out.lam_t.size:  # (a StepsOut made without it: left empty)
+                out.lam_t[:] = lam_t
             out.w[:] = st.w_prev

@@ -15,6 +15,8 @@ __all__ = [
     "CONTACT",
     "DAMP",
     "EXT",
+    "FRICTION",
+    "FRICTION_ERROR",
     "GC_WORK",
     "IMPOSED",
     "LAW_BILATERAL",
@@ -41,10 +43,10 @@ BoolArray = npt.NDArray[np.bool_]
 NONE, SOLVED, IMPOSED = 0, 1, 2
 #: Contact law: the exact LCP (CD-Lagrange), a penalty spring, or bilateral rows.
 LAW_LCP, LAW_PENALTY, LAW_BILATERAL = 0, 1, 2
-#: Indices of :attr:`StepsOut.sums`.
-EXT, DAMP, CONTACT, LINK, GC_WORK, PHYS_WORK = range(6)
+#: Indices of :attr:`StepsOut.sums` (FRICTION: the work of the tangential impulses).
+EXT, DAMP, CONTACT, LINK, GC_WORK, PHYS_WORK, FRICTION = range(7)
 #: Indices of :attr:`StepsOut.flags`.
-CHANGED, MPI_ERROR, LCP_ERROR = range(3)
+CHANGED, MPI_ERROR, LCP_ERROR, FRICTION_ERROR = range(4)
 
 
 class Zone(NamedTuple):
@@ -98,6 +100,23 @@ class Zone(NamedTuple):
     send_idx: IntArray
     recv_ptr: IntArray
     recv_idx: IntArray
+    #: Coulomb friction (crane_fem.kernels.friction): n_t tangential rows of the contact
+    #: points with μ > 0, terms (row, owned DOF, coefficient, position in ``c_dofs``); per
+    #: contact point its friction coefficient, first tangential row and row count (0: none);
+    #: the Delassus blocks W_nt (p_c × n_t) and W_tt of the tangential rows; whether no two
+    #: points share a DOF (``fric_local``: point by point) and which points' blocks are w I.
+    nt: int
+    f_row: IntArray
+    f_dof: IntArray
+    f_coeff: FloatArray
+    f_pos: IntArray
+    mu: FloatArray
+    t_first: IntArray
+    t_count: IntArray
+    W_nt: FloatArray
+    W_tt: FloatArray
+    fric_local: bool
+    iso: BoolArray
 
 
 class ZoneState(NamedTuple):
@@ -120,6 +139,10 @@ class ZoneState(NamedTuple):
     qc: FloatArray  # (p − n_g) contact right-hand side
     work: FloatArray  # (n_g) operator scratch
     closed: BoolArray  # (p − n_g) contact points closed this micro step
+    jump_f: FloatArray  # the tangential impulses' part of Lᵀ Λ at the constraint DOFs
+    qt: FloatArray  # (n_t) free tangential velocities
+    lam_t: FloatArray  # (n_t) tangential impulses
+    fric_info: FloatArray  # (2) a friction problem not solved: its point and residual
     send_buf: FloatArray
     recv_buf: FloatArray
     requests: npt.NDArray[Any]
@@ -174,8 +197,9 @@ class StepsOut(NamedTuple):
     impulse and the smallest gap (``group_impulse``, ``group_gap``: (n, groups)), the energy
     sums (local: external, damping, contact and link work; global: the GC-measure and
     physical interface work), the interface impulses summed (trapezoid and plain), each
-    micro step's (``keep_impulses``), L_E V at the last micro step, and flags (contact set
-    changed, MPI error, singular LCP)."""
+    micro step's (``keep_impulses``), L_E V at the last micro step, flags (contact set
+    changed, MPI error, singular LCP, friction problem not solved), and the last micro
+    step's tangential impulses (``lam_t``, n_t; empty without friction)."""
 
     lam: FloatArray
     gaps: FloatArray
@@ -188,3 +212,4 @@ class StepsOut(NamedTuple):
     impulses: FloatArray
     w: FloatArray
     flags: IntArray
+    lam_t: FloatArray = np.zeros(0)  # (shared default: written only when n_t > 0)

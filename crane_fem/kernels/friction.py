@@ -1,0 +1,278 @@
+"""Coulomb friction in the explicit kernel: the frictional contact impulses of a micro step,
+compiled (the NumPy reference is :mod:`crane_fem.contact.friction`, whose docstring states the
+problem and its Alart–Curnier form (7.1)).
+
+Points that share no DOF with another point (the Delassus operator of the normal and
+tangential rows is block diagonal by point) are solved one by one: in closed form when the
+point's block is isotropic, w I (lumped mass, orthonormal rows on the point's own DOFs: every
+node-to-plane point), else by semismooth Newton on its 2 × 2 or 3 × 3 problem. Points that
+share DOFs are solved together by the same semismooth Newton method, to round-off; a problem
+it does not solve is flagged (``FRICTION_ERROR``) with the point and residual in
+``ZoneState.fric_info``, and the zone's owner refuses the step.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+import numpy.typing as npt
+
+from crane_fem.kernels.zone import FRICTION_ERROR, Zone, ZoneState
+
+__all__ = ["TOL", "contacts_friction", "solve_coulomb"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+BoolArray = npt.NDArray[np.bool_]
+
+#: Newton stops when ‖Φ‖∞ ≤ TOL × the impulse scale max |q_i| ρ_a (crane_fem.contact.friction).
+TOL = 1e-13
+MAX_ITER = 200
+
+
+@numba.njit(cache=True)
+def _alart_curnier(
+    W: FloatArray,
+    q: FloatArray,
+    ptr: IntArray,
+    mu: FloatArray,
+    r: FloatArray,
+    phi: FloatArray,
+    J: FloatArray,
+) -> float:
+    """Φ(r) of (7.1) into ``phi``, a generalized Jacobian into ``J``; returns ½‖Φ‖²."""
+    m = q.size
+    u = W @ r + q
+    J[:, :] = 0.0
+    for a in range(ptr.size - 1):
+        i0, i1 = ptr[a], ptr[a + 1]
+        rho = 1.0 / W[i0, i0]
+        an = r[i0] - rho * u[i0]
+        if an > 0.0:
+            phi[i0] = r[i0] - an
+            for j in range(m):
+                J[i0, j] = rho * W[i0, j]
+        else:
+            phi[i0] = r[i0]
+            J[i0, i0] = 1.0
+        k = i1 - i0 - 1
+        if k == 0:
+            continue
+        tau = mu[a] * max(0.0, an)
+        z = np.empty(k)
+        nz2 = 0.0
+        for b in range(k):
+            z[b] = r[i0 + 1 + b] - rho * u[i0 + 1 + b]
+            nz2 += z[b] * z[b]
+        nz = np.sqrt(nz2)
+        if tau > 0.0 and nz <= tau:  # stick: Φ_t = ρ u_t
+            for b in range(k):
+                phi[i0 + 1 + b] = rho * u[i0 + 1 + b]
+                for j in range(m):
+                    J[i0 + 1 + b, j] = rho * W[i0 + 1 + b, j]
+            continue
+        if tau <= 0.0:  # open, or no normal impulse: Φ_t = r_t
+            for b in range(k):
+                phi[i0 + 1 + b] = r[i0 + 1 + b]
+                J[i0 + 1 + b, i0 + 1 + b] = 1.0
+            continue
+        # Slide: Φ_t = r_t − τ ẑ; dΦ_t = E_t − (τ/‖z‖)(I − ẑẑᵀ) dz − ẑ dτ.
+        zh = z / nz
+        c = tau / nz
+        dz = np.zeros((k, m))
+        for b in range(k):
+            dz[b, i0 + 1 + b] = 1.0
+            for j in range(m):
+                dz[b, j] -= rho * W[i0 + 1 + b, j]
+        proj = zh @ dz  # ẑᵀ dz
+        for b in range(k):
+            phi[i0 + 1 + b] = r[i0 + 1 + b] - tau * zh[b]
+            J[i0 + 1 + b, i0 + 1 + b] += 1.0
+            for j in range(m):
+                dtau = -mu[a] * rho * W[i0, j]
+                if j == i0:
+                    dtau += mu[a]
+                J[i0 + 1 + b, j] -= c * (dz[b, j] - zh[b] * proj[j]) + zh[b] * dtau
+    merit = 0.0
+    for i in range(m):
+        merit += phi[i] * phi[i]
+    return 0.5 * merit
+
+
+@numba.njit(cache=True)
+def _point_closed_form(q: FloatArray, w: float, mu: float, r: FloatArray) -> None:
+    """(crane_fem.contact.friction.coulomb_point) r of one point with block w I."""
+    for i in range(q.size):
+        r[i] = 0.0
+    rn = max(0.0, -q[0] / w)
+    if rn <= 0.0:
+        return
+    r[0] = rn
+    s2 = 0.0
+    for i in range(1, q.size):
+        s2 += (-q[i] / w) * (-q[i] / w)
+    s = np.sqrt(s2)
+    lim = mu * rn
+    f = 1.0 if s <= lim else lim / s
+    for i in range(1, q.size):
+        r[i] = (-q[i] / w) * f
+
+
+@numba.njit(cache=True)
+def solve_coulomb(
+    W: FloatArray, q: FloatArray, ptr: IntArray, mu: FloatArray, r: FloatArray
+) -> tuple[float, int]:
+    """r solving (7.1) by semismooth Newton with an Armijo line search on ½‖Φ‖², from each
+    point's closed form with its block taken as W_nn I. Returns (‖Φ‖∞ relative to the
+    impulse scale, the point where it is largest); converged when ≤ :data:`TOL`.
+    Not collective: every rank holds the same W and q and gets the same answer."""
+    m = q.size
+    na = ptr.size - 1
+    scale = 0.0
+    for a in range(na):
+        i0, i1 = ptr[a], ptr[a + 1]
+        _point_closed_form(q[i0:i1], W[i0, i0], mu[a], r[i0:i1])
+        for i in range(i0, i1):
+            scale = max(scale, abs(q[i]) / W[i0, i0])
+    if scale == 0.0:
+        return 0.0, 0
+    phi = np.empty(m)
+    J = np.empty((m, m))
+    phi_t = np.empty(m)
+    J_t = np.empty((m, m))
+    merit = _alart_curnier(W, q, ptr, mu, r, phi, J)
+    for _ in range(MAX_ITER):
+        res = 0.0
+        for i in range(m):
+            res = max(res, abs(phi[i]))
+        if res <= TOL * scale:
+            break
+        d = np.linalg.lstsq(J, -phi)[0]
+        step = 1.0
+        trial = r + d
+        merit_t = merit
+        for _ls in range(40):
+            trial = r + step * d
+            merit_t = _alart_curnier(W, q, ptr, mu, trial, phi_t, J_t)
+            if merit_t <= (1.0 - 2e-4 * step) * merit:
+                break
+            step *= 0.5
+        r[:] = trial
+        phi[:] = phi_t
+        J[:, :] = J_t
+        merit = merit_t
+    res = 0.0
+    worst = 0
+    for a in range(na):
+        for i in range(ptr[a], ptr[a + 1]):
+            if abs(phi[i]) / scale > res:
+                res = abs(phi[i]) / scale
+                worst = a
+    return res, worst
+
+
+@numba.njit(cache=True)
+def _fail(st: ZoneState, flags: IntArray, point: int, res: float) -> None:
+    if flags[FRICTION_ERROR] == 0 or res > st.fric_info[1]:
+        st.fric_info[0] = point
+        st.fric_info[1] = res
+    flags[FRICTION_ERROR] = 1
+
+
+@numba.njit(cache=True)
+def contacts_friction(
+    z: Zone, st: ZoneState, closed: BoolArray, lam_c: FloatArray, flags: IntArray
+) -> None:
+    """Normal impulses ``lam_c`` and tangential impulses ``st.lam_t`` of the closed points
+    (zero on open points) from the frictional contact problem; the free velocities are
+    ``st.qc`` (normal rows) and ``st.qt`` (tangential rows). Not collective."""
+    pc = closed.size
+    lam_t, qc, qt = st.lam_t, st.qc, st.qt
+    for c in range(pc):
+        lam_c[c] = 0.0
+    for k in range(lam_t.size):
+        lam_t[k] = 0.0
+    if z.fric_local:
+        for c in range(pc):
+            if not closed[c]:
+                continue
+            nk = z.t_count[c]
+            if nk == 0:  # frictionless: the normal law's closed form
+                lam_c[c] = max(0.0, -qc[c] / z.W_cc[c, c])
+                continue
+            k0 = z.t_first[c]
+            w = z.W_cc[c, c]
+            if z.iso[c]:
+                rn = max(0.0, -qc[c] / w)
+                lam_c[c] = rn
+                if rn > 0.0:
+                    s2 = 0.0
+                    for k in range(nk):
+                        s2 += (-qt[k0 + k] / w) * (-qt[k0 + k] / w)
+                    s = np.sqrt(s2)
+                    lim = z.mu[c] * rn
+                    f = 1.0 if s <= lim else lim / s
+                    for k in range(nk):
+                        lam_t[k0 + k] = (-qt[k0 + k] / w) * f
+                continue
+            Wl = np.empty((nk + 1, nk + 1))
+            ql = np.empty(nk + 1)
+            Wl[0, 0] = w
+            ql[0] = qc[c]
+            for a in range(nk):
+                ql[1 + a] = qt[k0 + a]
+                Wl[0, 1 + a] = z.W_nt[c, k0 + a]
+                Wl[1 + a, 0] = z.W_nt[c, k0 + a]
+                for b in range(nk):
+                    Wl[1 + a, 1 + b] = z.W_tt[k0 + a, k0 + b]
+            rl = np.empty(nk + 1)
+            ptr = np.array([0, nk + 1], dtype=np.int64)
+            res, _ = solve_coulomb(Wl, ql, ptr, z.mu[c : c + 1], rl)
+            if res > TOL:
+                _fail(st, flags, c, res)
+            lam_c[c] = rl[0]
+            for a in range(nk):
+                lam_t[k0 + a] = rl[1 + a]
+        return
+    # Points coupled through shared DOFs: one problem over the closed points.
+    idx = np.flatnonzero(closed)
+    na = idx.size
+    if na == 0:
+        return
+    ptr = np.zeros(na + 1, dtype=np.int64)
+    for a in range(na):
+        ptr[a + 1] = ptr[a] + 1 + z.t_count[idx[a]]
+    m = ptr[na]
+    rows = np.empty(m, dtype=np.int64)  # full-row index: c (normal) or pc + k (tangent)
+    mus = np.empty(na)
+    for a in range(na):
+        c = idx[a]
+        mus[a] = z.mu[c]
+        rows[ptr[a]] = c
+        for b in range(z.t_count[c]):
+            rows[ptr[a] + 1 + b] = pc + z.t_first[c] + b
+    Wl = np.empty((m, m))
+    ql = np.empty(m)
+    for i in range(m):
+        ri = rows[i]
+        ql[i] = qc[ri] if ri < pc else qt[ri - pc]
+        for j in range(m):
+            rj = rows[j]
+            if ri < pc and rj < pc:
+                Wl[i, j] = z.W_cc[ri, rj]
+            elif ri < pc:
+                Wl[i, j] = z.W_nt[ri, rj - pc]
+            elif rj < pc:
+                Wl[i, j] = z.W_nt[rj, ri - pc]
+            else:
+                Wl[i, j] = z.W_tt[ri - pc, rj - pc]
+    rl = np.empty(m)
+    res, worst = solve_coulomb(Wl, ql, ptr, mus, rl)
+    if res > TOL:
+        _fail(st, flags, idx[worst], res)
+    for i in range(m):
+        ri = rows[i]
+        if ri < pc:
+            lam_c[ri] = rl[i]
+        else:
+            lam_t[ri - pc] = rl[i]
