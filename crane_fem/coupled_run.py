@@ -97,6 +97,7 @@ class HistoryRows:
         cols += [f"probe_u{c}" for c in range(self.bs)] + [f"probe_v{c}" for c in range(self.bs)]
         cols += ["interface_force_norm", "interface_velocity_jump"]
         cols += ["interface_impulse", "interface_impulse_defect"]
+        cols += sim.mean_motion_columns()  # a block: its centre of mass
         # Crane: one wheel/rail node pair per wheel (the first pair of each patch), vertical
         # displacement and velocity on both sides (the paper's Figs. 5–6).
         self.pairs: list[tuple[int, int, int]] = []
@@ -141,6 +142,7 @@ class HistoryRows:
         row["interface_velocity_jump"] = rec.interface_velocity_jump
         row["interface_impulse"] = rec.impulse_explicit
         row["interface_impulse_defect"] = rec.impulse_defect
+        row.update(sim.mean_motion(rec.explicit_u, rec.explicit_v))
         if self.pairs:
             sub = md.explicit
             assert sub is not None and rec.explicit_u is not None and rec.explicit_v is not None

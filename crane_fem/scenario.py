@@ -166,6 +166,28 @@ class BoxBeamModel(_Section):
         return ["part_a", "part_b"]
 
 
+class BlockModel(_Section):
+    """3D elastic box [0, lx] × [0, ly] × [gap, gap + lz] (``size`` = [lx, ly, lz], m) above
+    the rigid plane z = 0 of its ``plane`` contact (gap: that contact's ``gap``), P1
+    tetrahedra of size about ``h``; one explicit CD-Lagrange body (the fully explicit path,
+    no ``[[subdomain]]``). Cell group ``block``; facet groups ``bottom`` (z = gap, every
+    vertex a contact point) and ``top``."""
+
+    kind: Literal["block"]
+    size: Annotated[list[PositiveFloat], Field(min_length=3, max_length=3)]
+    h: PositiveFloat
+
+    @model_validator(mode="after")
+    def _h_fits(self) -> BlockModel:
+        if self.h > min(self.size):
+            raise ValueError(f"model.h = {self.h} is larger than a side of the block")
+        return self
+
+    @property
+    def groups(self) -> list[str]:
+        return ["block"]
+
+
 class DampingRatio(_Section):
     """Rayleigh damping giving the ratio ``ratio`` at the frequencies f1 < f2 (Hz)."""
 
@@ -217,24 +239,41 @@ class Pulse(_Section):
 
 class Initial(_Section):
     """Initial state of the first bar: uniform velocity, linear displacement [left, right],
-    optionally a travelling pulse on top."""
+    optionally a travelling pulse on top; of a block: its uniform velocity [vx, vy, vz]."""
 
-    velocity: float = 0.0
+    velocity: float | Vector3 = 0.0
     displacement: Pair = [0.0, 0.0]
     pulse: Pulse | None = None
 
+    @property
+    def bar_velocity(self) -> float:
+        """The bar's uniform velocity (a scenario with a vector velocity is refused for a
+        bar, so this is a number there)."""
+        v = self.velocity
+        return float(v) if not isinstance(v, list) else float(v[0])
+
+    @property
+    def velocity_vector(self) -> list[float]:
+        """The uniform velocity as [vx, vy, vz] (a number: [v, 0, 0])."""
+        v = self.velocity
+        return [float(x) for x in v] if isinstance(v, list) else [float(v), 0.0, 0.0]
+
 
 class Contact(_Section):
-    """A unilateral frictionless contact.
+    """A unilateral contact, frictionless unless ``friction`` (Coulomb's μ ≥ 0) is given.
 
     ``wall``: rigid plane x = 0 facing +x, the first bar's left end at x = gap.
     ``bars``: node-to-node between the first bar's right end and the second bar's left end,
     ``gap`` apart.
+    ``plane``: the rigid plane z = 0 facing +z under a block (model.kind 'block') whose bottom
+    face is at z = gap: every vertex of that face is a contact point, normal e_z, tangents
+    e_x and e_y (the only type with a tangent plane, so the only one that takes friction).
     """
 
-    type: Literal["wall", "bars"]
+    type: Literal["wall", "bars", "plane"]
     gap: NonNegativeFloat
     name: str | None = None
+    friction: NonNegativeFloat = 0.0
 
     @property
     def label(self) -> str:
@@ -461,7 +500,9 @@ class Scenario(_Section):
     """A whole scenario file."""
 
     name: str = "scenario"
-    model: Annotated[BarModel | BoxBeamModel | CraneModel, Field(discriminator="kind")]
+    model: Annotated[
+        BarModel | BoxBeamModel | CraneModel | BlockModel, Field(discriminator="kind")
+    ]
     material: Material
     initial: Initial = Initial()
     contact: list[Contact] = []
@@ -477,8 +518,68 @@ class Scenario(_Section):
 
     @property
     def coupled_path(self) -> bool:
-        """Run through subdomains (coupled or monolithic reference) rather than the bar path."""
-        return bool(self.subdomain) or self.coupling is not None
+        """Run through subdomains (coupled or monolithic reference) rather than the bar path
+        (a block always: one CD-Lagrange subdomain built by the pipeline)."""
+        return (
+            bool(self.subdomain) or self.coupling is not None or isinstance(self.model, BlockModel)
+        )
+
+    @model_validator(mode="after")
+    def _contacts_and_block(self) -> Scenario:
+        mdl = self.model
+        block = isinstance(mdl, BlockModel)
+        for i, c in enumerate(self.contact):
+            if c.friction > 0.0 and c.type != "plane":
+                raise ValueError(
+                    f"contact[{i}].friction: a {c.type!r} contact (a 1D bar's end point) has "
+                    "no tangent plane; friction needs a contact of type 'plane' (model.kind "
+                    "'block')"
+                )
+            if (c.type == "plane") != block:
+                raise ValueError(
+                    f"contact[{i}].type: {c.type!r} does not apply to model.kind {mdl.kind!r} "
+                    f"(a block takes type 'plane', a bar 'wall' or 'bars')"
+                )
+        vec = isinstance(self.initial.velocity, list)
+        if vec and not block:
+            raise ValueError(
+                f"initial.velocity: model.kind {mdl.kind!r} takes a number (the bar's axial "
+                f"velocity), not a vector (got {self.initial.velocity})"
+            )
+        if not block:
+            return self
+        if not vec and self.initial.velocity != 0.0:
+            raise ValueError(
+                "initial.velocity: model.kind 'block' takes a vector [vx, vy, vz] (m/s), not a "
+                f"number (got {self.initial.velocity})"
+            )
+        if len(self.contact) > 1:
+            raise ValueError("contact: a block takes at most one contact (type 'plane')")
+        if self.initial.displacement != [0.0, 0.0] or self.initial.pulse is not None:
+            raise ValueError(
+                "initial: model.kind 'block' starts undeformed (displacement and pulse are a "
+                "bar's); give its initial.velocity only"
+            )
+        if self.subdomain:
+            raise ValueError(
+                "subdomain: model.kind 'block' is one explicit CD-Lagrange body; it takes no "
+                "[[subdomain]] entries"
+            )
+        cpl = self.coupling
+        explicit = cpl is None or (
+            cpl.method == "monolithic" and cpl.monolithic_scheme == "cd-lagrange"
+        )
+        if not explicit:
+            raise ValueError(
+                "coupling: model.kind 'block' runs fully explicit (method 'monolithic', scheme "
+                "'cd-lagrange'); leave [coupling] out"
+            )
+        if self.integrator.scheme != "cd-lagrange":
+            raise ValueError(
+                f"integrator.scheme: model.kind 'block' runs with 'cd-lagrange', not "
+                f"{self.integrator.scheme!r}"
+            )
+        return self
 
     @model_validator(mode="after")
     def _subdomains(self) -> Scenario:
@@ -613,7 +714,12 @@ class Scenario(_Section):
         return self
 
 
-MODEL_KINDS = {"bar": BarModel, "box_beam": BoxBeamModel, "crane": CraneModel}
+MODEL_KINDS = {
+    "bar": BarModel,
+    "box_beam": BoxBeamModel,
+    "crane": CraneModel,
+    "block": BlockModel,
+}
 
 
 def _allowed_keys(section: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:

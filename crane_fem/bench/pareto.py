@@ -283,7 +283,7 @@ def bar_specs() -> tuple[list[Spec], WallImpact, float]:
     assert isinstance(mdl, BarModel)
     c = math.sqrt(split.material.E / split.material.rho)
     gap = split.contact[0].gap
-    exact = WallImpact(mdl.length, c, split.initial.velocity, gap)
+    exact = WallImpact(mdl.length, c, split.initial.bar_velocity, gap)
     single = {
         "model.length": mdl.length,
         "model.elements": mdl.elements,
@@ -319,7 +319,7 @@ def bar_specs() -> tuple[list[Spec], WallImpact, float]:
             s = {"coupling.method": method, "coupling.ratio": m, "output.xdmf": False}
             lab = f"split_bar_{method}_m{m}"
             specs.append(Spec("bar", method, lab, demo("split_bar"), s, {"m": m}))
-    force = split.material.rho * c * abs(split.initial.velocity) * mdl.area
+    force = split.material.rho * c * abs(split.initial.bar_velocity) * mdl.area
     return specs, exact, force
 
 

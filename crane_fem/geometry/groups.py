@@ -9,6 +9,9 @@ __all__ = [
     "BEAM_PART_A",
     "BEAM_PART_B",
     "BEAM_TIP",
+    "BLOCK",
+    "BLOCK_BOTTOM",
+    "BLOCK_TOP",
 ]
 
 # Split bar: cells left / right of model.split, and its two end points.
@@ -22,3 +25,8 @@ BEAM_PART_A = "part_a"
 BEAM_PART_B = "part_b"
 BEAM_CLAMPED = "clamped"
 BEAM_TIP = "tip"
+
+# Block on a plane: its one cell group, the face on the plane (z = gap) and the top face.
+BLOCK = "block"
+BLOCK_BOTTOM = "bottom"
+BLOCK_TOP = "top"

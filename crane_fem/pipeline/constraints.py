@@ -1,5 +1,5 @@
 """Pipeline stage 3, models → constraints: the duplicated interface DOFs between the explicit
-and implicit subdomains, and the unilateral contacts of the explicit side."""
+and implicit subdomains, and the unilateral (and frictional) contacts of the explicit side."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from crane_fem.contact import ContactSet
+from crane_fem.contact.constraints import TangentRows
 from crane_fem.coupling.interface import build_interface, constraint_set
 from crane_fem.errors import ScenarioError
 from crane_fem.geometry import groups
@@ -17,7 +18,7 @@ from crane_fem.geometry.crane import CraneMesh
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.pipeline.models import ModelStage
 from crane_fem.preload import Preload
-from crane_fem.scenario import CraneModel, Scenario
+from crane_fem.scenario import BlockModel, CraneModel, Scenario
 from crane_fem.subdomains import Subdomain, global_ids
 
 __all__ = ["ConstraintStage", "build_constraints"]
@@ -49,6 +50,47 @@ def _wall_contacts(sc: Scenario, mesh: MeshStage, sub: Subdomain) -> ContactSet:
     wall = next(c for c in sc.contact if c.type == "wall")
     return constraint_set(
         sub, left, 1.0, np.array([wall.gap]), [wall.label], np.zeros(1, dtype=np.int64)
+    )
+
+
+def _plane_contacts(sc: Scenario, mesh: MeshStage, sub: Subdomain) -> ContactSet:
+    """Every vertex of the block's bottom face against the rigid plane z = 0 (facing +z):
+    gap g = gap + u_z (row n = e_z), and with friction μ > 0 the tangential rows t₁ = e_x,
+    t₂ = e_y (orthonormal: with the lumped mass each point's Delassus block is I/m, the
+    closed form of crane_fem.kernels.friction). Rows are numbered by the sorted global vertex
+    ids (identical on all ranks); terms live on the rank owning the vertex."""
+    tagged = mesh.tagged
+    bottom = tagged.global_vertices(tagged.facet_vertices(groups.BLOCK_BOTTOM))
+    plane = next(c for c in sc.contact if c.type == "plane")
+    n = bottom.size
+    blocks, pos = sub.owned_dofs_of(bottom)
+    mdl = sc.model
+    assert isinstance(mdl, BlockModel)
+    bs = sub.bs
+    tangents = None
+    mu = None
+    if plane.friction > 0.0:
+        mu = np.full(n, plane.friction)
+        rows = (2 * pos[:, None] + np.arange(2)[None, :]).ravel()
+        dofs = (blocks[:, None] * bs + np.arange(2)[None, :]).ravel()
+        tangents = TangentRows(
+            np.repeat(np.arange(n, dtype=np.int64), 2),
+            rows.astype(np.int64),
+            dofs.astype(np.int64),
+            np.ones(rows.size),
+        )
+    return ContactSet(
+        mesh.comm,
+        np.full(n, plane.gap),
+        pos.astype(np.int64),
+        (blocks * bs + 2).astype(np.int64),
+        np.ones(blocks.size),
+        np.zeros(n, dtype=np.int64),
+        [plane.label],
+        # A point held on the plane drifts by round-off (ε |u|): 1e-12 of the block absorbs it.
+        tol=1e-12 * max(mdl.size),
+        mu=mu,
+        tangents=tangents,
     )
 
 
@@ -110,5 +152,8 @@ def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> Cons
     elif sc.contact:
         if E_sub is None:
             raise ScenarioError("contact: needs an explicit (cd-lagrange) subdomain")
-        contacts = _wall_contacts(sc, mesh, E_sub)
+        if isinstance(sc.model, BlockModel):
+            contacts = _plane_contacts(sc, mesh, E_sub)
+        else:
+            contacts = _wall_contacts(sc, mesh, E_sub)
     return ConstraintStage(vertices, le, li, contacts)

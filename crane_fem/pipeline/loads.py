@@ -1,5 +1,6 @@
 """Scenario loads and initial states of a subdomain: self-weight, ground motion (−M ι a_g(t)
-per direction), the box beam's tip traction; the bar's initial field, the crane's preload."""
+per direction), the box beam's tip traction; the bar's initial field, the block's uniform
+velocity, the crane's preload."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ from crane_fem.loading import Accelerogram
 from crane_fem.loading.body import AffineLoad, GroundMotionHistory, PulseHistory
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.preload import Preload
-from crane_fem.scenario import BarModel, GroundMotion, Scenario
+from crane_fem.scenario import BarModel, BlockModel, GroundMotion, Scenario
 from crane_fem.subdomains import Subdomain
 
 __all__ = ["body_load", "ground_motion", "initial_state"]
@@ -128,7 +129,7 @@ def initial_state(
         X = x - next((c.gap for c in sc.contact if c.type == "wall"), 0.0)
         ul, ur = sc.initial.displacement
         u0 = ul + (ur - ul) * X / mdl.length
-        v0 = np.full(n_own, sc.initial.velocity)
+        v0 = np.full(n_own, sc.initial.bar_velocity)
         p = sc.initial.pulse
         if p is not None:
             c = math.sqrt(sc.material.E / sc.material.rho)
@@ -137,6 +138,8 @@ def initial_state(
             u0 = u0 + np.where(inside, p.amplitude * np.cos(math.pi * z) ** 2, 0.0)
             du = np.where(inside, -p.amplitude * math.pi / p.width * np.sin(2 * math.pi * z), 0.0)
             v0 = v0 - c * du
+    if isinstance(mdl, BlockModel):  # a uniform velocity [vx, vy, vz]
+        v0 = np.tile(np.asarray(sc.initial.velocity_vector), sub.n_owned_blocks)
     if preload is not None:
         blocks = sub.parent_vertex[: sub.n_owned_blocks]
         u0 = preload.displacement[blocks].ravel().copy()

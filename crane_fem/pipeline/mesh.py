@@ -12,10 +12,11 @@ import ufl
 from mpi4py import MPI
 
 from crane_fem.geometry import TaggedMesh, create_box_beam, create_split_bar, groups
+from crane_fem.geometry.block import Block, create_block
 from crane_fem.geometry.box_beam import BoxBeam
 from crane_fem.geometry.crane import CraneMesh, create_crane_mesh
 from crane_fem.mesh import Segment
-from crane_fem.scenario import BarModel, BoxBeamModel, CraneModel, Scenario
+from crane_fem.scenario import BarModel, BlockModel, BoxBeamModel, CraneModel, Scenario
 
 __all__ = ["MeshStage", "build_mesh", "create_tagged_mesh"]
 
@@ -49,6 +50,10 @@ def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh | CraneMesh:
         return create_crane_mesh(comm, mdl.geometry(), mdl.mesh)
     if isinstance(mdl, BoxBeamModel):
         return create_box_beam(comm, BoxBeam(mdl.length, mdl.width, mdl.height, mdl.split, mdl.h))
+    if isinstance(mdl, BlockModel):
+        gap = next((c.gap for c in sc.contact if c.type == "plane"), 0.0)
+        lx, ly, lz = mdl.size
+        return create_block(comm, Block(lx, ly, lz, gap, mdl.h))
     assert isinstance(mdl, BarModel)
     x0 = next((c.gap for c in sc.contact if c.type == "wall"), 0.0)
     split = mdl.split if mdl.split is not None else mdl.length  # all cells "left"
@@ -86,6 +91,8 @@ def build_mesh(sc: Scenario, comm: MPI.Comm) -> MeshStage:
         clamp_local = tagged.facet_vertices("clamped")
     elif isinstance(mdl, BoxBeamModel):
         clamp_local = tagged.facet_vertices(groups.BEAM_CLAMPED)
+    elif isinstance(mdl, BlockModel):
+        clamp_local = np.zeros(0, dtype=np.int32)
     elif mdl.clamp == "right":
         clamp_local = tagged.facet_vertices(groups.BAR_RIGHT_END)
     else:

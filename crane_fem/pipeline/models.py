@@ -11,7 +11,7 @@ import numpy as np
 from crane_fem.errors import ScenarioError
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.preload import Preload, static_preload
-from crane_fem.scenario import BarModel, Scenario
+from crane_fem.scenario import BarModel, BlockModel, Scenario
 from crane_fem.stability import critical_time_step, max_frequency
 from crane_fem.subdomains import Subdomain, create_subdomain
 
@@ -60,6 +60,8 @@ def _specs(sc: Scenario, mesh: MeshStage) -> tuple[str, int, list[tuple[str, str
     if cpl is not None and cpl.method == "monolithic":
         groups = list(mesh.tagged.cell_groups)
         return "monolithic", 1, [("all", cpl.monolithic_scheme, groups)]
+    if isinstance(sc.model, BlockModel):  # one explicit body: the fully explicit path
+        return "monolithic", 1, [("all", "cd-lagrange", list(mesh.tagged.cell_groups))]
     specs: list[tuple[str, str, list[str]]] = [
         (s.name, str(s.scheme), list(s.groups)) for s in sc.subdomain
     ]

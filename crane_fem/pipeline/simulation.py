@@ -16,9 +16,11 @@ from crane_fem.pipeline.integrators import IntegratorStage, build_integrators
 from crane_fem.pipeline.mesh import MeshStage, build_mesh
 from crane_fem.pipeline.models import ModelStage, build_models
 from crane_fem.reduction import check_modes, interior_dofs
-from crane_fem.scenario import BoxBeamModel, CraneModel, Scenario
+from crane_fem.scenario import BlockModel, BoxBeamModel, CraneModel, Scenario
 
 __all__ = ["Simulation", "SimulationCheck", "check_simulation", "create_simulation"]
+
+FloatArray = npt.NDArray[np.float64]
 
 
 @dataclass
@@ -33,17 +35,44 @@ class Simulation:
     integrators: IntegratorStage
 
     def probe_vertices(self) -> npt.NDArray[np.int64]:
-        """Global ids of the probe: the bar's right end, the beam's tip face, or the crane's
-        wheel 1 contact face (wheel side)."""
+        """Global ids of the probe: the bar's right end, the beam's tip face, the crane's
+        wheel 1 contact face (wheel side), or the block's top face."""
         mdl = self.scenario.model
         if isinstance(mdl, CraneModel):
             name = "wheel_patch_1"
         elif isinstance(mdl, BoxBeamModel):
             name = groups.BEAM_TIP
+        elif isinstance(mdl, BlockModel):
+            name = groups.BLOCK_TOP
         else:
             name = groups.BAR_RIGHT_END
         tagged = self.mesh.tagged
         return tagged.global_vertices(tagged.facet_vertices(name))
+
+    def mean_motion_columns(self) -> list[str]:
+        """The history columns of :meth:`mean_motion`: a block's mass-weighted mean
+        displacement and velocity (``ux_mean`` … ``vz_mean``); none for other models."""
+        if not isinstance(self.scenario.model, BlockModel):
+            return []
+        return [f"{q}{c}_mean" for q in "uv" for c in "xyz"]
+
+    def mean_motion(self, u: FloatArray | None, v: FloatArray | None) -> dict[str, float]:
+        """The mass-weighted means Σ m_i u_i / Σ m_i of each component of the explicit side's
+        displacement ``u`` and velocity ``v`` (owned DOFs): the motion of the centre of mass
+        (collective over the mesh's communicator for a block; {} otherwise, no
+        communication)."""
+        cols = self.mean_motion_columns()
+        if not cols:
+            return {}
+        sub = self.models.explicit
+        assert sub is not None and u is not None and v is not None
+        bs = sub.bs
+        m = sub.model.mass.reshape(-1, bs)
+        local = np.r_[(m * u.reshape(-1, bs)).sum(axis=0), (m * v.reshape(-1, bs)).sum(axis=0)]
+        local = np.r_[local, m.sum(axis=0)]
+        tot = self.mesh.comm.allreduce(local, op=MPI.SUM)
+        mass = np.r_[tot[2 * bs :], tot[2 * bs :]]
+        return {c: float(x / w) for c, x, w in zip(cols, tot[: 2 * bs], mass, strict=True)}
 
     def destroy(self) -> None:
         self.integrators.destroy()
