@@ -500,9 +500,7 @@ class Scenario(_Section):
     """A whole scenario file."""
 
     name: str = "scenario"
-    model: Annotated[
-        BarModel | BoxBeamModel | CraneModel | BlockModel, Field(discriminator="kind")
-    ]
+    model: Annotated[BarModel | BoxBeamModel | CraneModel | BlockModel, Field(discriminator="kind")]
     material: Material
     initial: Initial = Initial()
     contact: list[Contact] = []
@@ -531,8 +529,8 @@ class Scenario(_Section):
         for i, c in enumerate(self.contact):
             if c.friction > 0.0 and c.type != "plane":
                 raise ValueError(
-                    f"contact[{i}].friction: a {c.type!r} contact (a 1D bar's end point) has "
-                    "no tangent plane; friction needs a contact of type 'plane' (model.kind "
+                    f"contact[{i}].friction: a {c.type!r} contact (at a 1D bar's end) has no "
+                    "tangent plane; friction needs a contact of type 'plane' (model.kind "
                     "'block')"
                 )
             if (c.type == "plane") != block:

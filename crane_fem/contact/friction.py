@@ -16,9 +16,12 @@ q the free velocities), and at every point
 
 (P_B(τ) the projection on the disc of radius τ); Φ(r) = 0 exactly when r solves the problem.
 With W = w I on a point (lumped mass, orthonormal rows on its own DOFs: w = 1/m node to
-plane), ρ = 1/w makes (7.1) explicit, the closed form of :func:`coulomb_point`. Otherwise a
-semismooth Newton method on (7.1) with an Armijo line search on ½‖Φ‖², stopped at round-off
-(:func:`solve_coulomb`).
+plane), ρ = 1/w makes (7.1) explicit, the closed form of :func:`coulomb_point`. One point
+with any W: the exact enumeration of :func:`solve_point` (separation, stick, then the slip
+directions, roots of a quartic). Points that share DOFs: a semismooth Newton method on (7.1)
+with an Armijo line search on ½‖Φ‖², and where it stalls (large μ with strongly coupled
+rows) nonsmooth Gauss–Seidel sweeps with :func:`solve_point` at each point, both stopped at
+round-off (:func:`solve_coulomb`).
 """
 
 from __future__ import annotations
@@ -26,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["alart_curnier", "coulomb_point", "coulomb_residual", "solve_coulomb"]
+__all__ = ["alart_curnier", "coulomb_point", "coulomb_residual", "solve_coulomb", "solve_point"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -34,6 +37,8 @@ IntArray = npt.NDArray[np.int64]
 #: Newton stops when ‖Φ‖∞ ≤ TOL × the impulse scale max |q_i| ρ_a (round-off of u = W r + q).
 TOL = 1e-13
 MAX_ITER = 200
+#: Gauss–Seidel sweeps after a stalled Newton method.
+MAX_SWEEPS = 2000
 
 
 def coulomb_point(q: FloatArray, w: float, mu: float) -> FloatArray:
@@ -55,6 +60,80 @@ def coulomb_point(q: FloatArray, w: float, mu: float) -> FloatArray:
     lim = mu * rn
     r[1:] = rt if s <= lim else rt * (lim / s)
     return r
+
+
+def _slip_angles(W: FloatArray, q: FloatArray, mu: float) -> list[float]:
+    """The slip directions d = (cos φ, sin φ) of a point with two tangential rows at which
+    u_t = r_n b(d) + q_t is parallel to d, with r_n = −q_n / a(d), a = W_nn − μ W_nt d and
+    b = W_tn − μ W_tt d: the roots of f(φ) = −q_n b × d + a q_t × d, a trigonometric
+    polynomial of degree 2 (a quartic in tan φ/2), polished by Newton's method on f."""
+    Wnn, w, A = W[0, 0], W[1:, 0], W[1:, 1:]
+    qn, qt = q[0], q[1:]
+    # f = a1 c + a2 s + b11 c² + b12 c s + b22 s² (c = cos φ, s = sin φ).
+    a1 = qn * w[1] - Wnn * qt[1]
+    a2 = -qn * w[0] + Wnn * qt[0]
+    b11 = -qn * mu * A[0, 1] + mu * w[0] * qt[1]
+    b22 = qn * mu * A[0, 1] - mu * w[1] * qt[0]
+    b12 = qn * mu * (A[0, 0] - A[1, 1]) - mu * w[0] * qt[0] + mu * w[1] * qt[1]
+
+    def f(ph: float) -> tuple[float, float]:
+        c, s = np.cos(ph), np.sin(ph)
+        val = a1 * c + a2 * s + b11 * c * c + b12 * c * s + b22 * s * s
+        der = -a1 * s + a2 * c - 2 * b11 * c * s + b12 * (c * c - s * s) + 2 * b22 * s * c
+        return float(val), float(der)
+
+    # t = tan φ/2: (1 + t²)² f = p4 t⁴ + p3 t³ + p2 t² + p1 t + p0 (φ = π apart).
+    poly = [b11 - a1, 2 * (a2 - b12), 4 * b22 - 2 * b11, 2 * (a2 + b12), a1 + b11]
+    phis = [float(np.pi)]
+    if any(poly):
+        for t in np.roots(poly):
+            if abs(t.imag) <= 1e-6 * max(1.0, abs(t)):
+                phis.append(2.0 * float(np.arctan(t.real)))
+    out = []
+    for ph in phis:
+        for _ in range(8):
+            val, der = f(ph)
+            if der == 0.0:
+                break
+            ph -= val / der
+        out.append(ph)
+    return out
+
+
+def solve_point(W: FloatArray, q: FloatArray, mu: float) -> tuple[FloatArray, bool]:
+    """The exact impulse of one point with any Delassus block W (1 + k rows, k = 0, 1, 2):
+    separation (q_n ≥ 0: r = 0), else stick (r = −W⁻¹ q inside the cone), else the slip
+    candidates r = r_n (1, −μ d) with u_n = 0 and u_t = α d, α ≥ 0 (d = ±1 for one
+    tangential row; for two, the slip angles of :func:`_slip_angles`), the one with the
+    smallest :func:`coulomb_residual`. Returns (r, found). Not collective."""
+    m = q.size
+    r = np.zeros(m)
+    if q[0] >= 0.0:
+        return r, True
+    if m == 1 or mu == 0.0:
+        r[0] = -q[0] / W[0, 0]
+        return r, True
+    stick = -np.linalg.solve(W, q)
+    if stick[0] > 0.0 and float(np.sqrt(stick[1:] @ stick[1:])) <= mu * stick[0]:
+        return stick, True
+    if m == 2:
+        dirs = [np.array([1.0]), np.array([-1.0])]
+    else:
+        dirs = [np.array([np.cos(ph), np.sin(ph)]) for ph in _slip_angles(W, q, mu)]
+    best, best_res = r, np.inf
+    ptr, mus = np.array([0, m]), np.array([mu])
+    for d in dirs:
+        a = W[0, 0] - mu * float(W[0, 1:] @ d)
+        if a == 0.0:
+            continue
+        rn = -q[0] / a
+        if rn <= 0.0:
+            continue
+        cand = np.r_[rn, -mu * rn * d]
+        res = coulomb_residual(W, q, ptr, mus, cand)
+        if res < best_res:
+            best, best_res = cand, res
+    return best, bool(best_res <= 10 * TOL)
 
 
 def _blocks(ptr: IntArray) -> list[tuple[int, int]]:
@@ -131,7 +210,8 @@ def _scale(W: FloatArray, q: FloatArray, ptr: IntArray) -> float:
 def solve_coulomb(
     W: FloatArray, q: FloatArray, ptr: IntArray, mu: FloatArray
 ) -> tuple[FloatArray, float, int]:
-    """The impulses of the frictional contact problem (7.1) by semismooth Newton.
+    """The impulses of the frictional contact problem (7.1): semismooth Newton, then
+    Gauss–Seidel sweeps with the exact point solutions if Newton stalls.
 
     Not collective. Returns ``(r, residual, worst)``: the residual ‖Φ‖∞ relative to the
     impulse scale (≤ :data:`TOL` when converged) and the point where it is largest."""
@@ -156,6 +236,14 @@ def solve_coulomb(
                 break
             step *= 0.5
         r, phi, J = trial, phi_t, J_t
+    blocks = _blocks(ptr)
+    for _ in range(MAX_SWEEPS if np.max(np.abs(phi)) > TOL * scale else 0):
+        for a, (i0, i1) in enumerate(blocks):
+            q_a = q[i0:i1] + W[i0:i1] @ r - W[i0:i1, i0:i1] @ r[i0:i1]
+            r[i0:i1] = solve_point(W[i0:i1, i0:i1], q_a, float(mu[a]))[0]
+        phi, _ = alart_curnier(W, q, ptr, mu, r)
+        if np.max(np.abs(phi)) <= TOL * scale:
+            break
     res = np.abs(phi) / scale
     worst = int(np.searchsorted(ptr, int(np.argmax(res)), side="right") - 1)
     return r, float(np.max(res)), worst
@@ -172,7 +260,7 @@ def coulomb_residual(
     for a, (i0, i1) in enumerate(_blocks(ptr)):
         rho = 1.0 / W[i0, i0]
         ut = u[i0 + 1 : i1]
-        s = r[i0 : i1].copy()
+        s = r[i0:i1].copy()
         s[0] -= rho * (u[i0] + mu[a] * float(np.sqrt(ut @ ut)))
         s[1:] -= rho * ut
         proj = _project_cone(s, float(mu[a]))

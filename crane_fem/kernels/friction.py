@@ -5,10 +5,11 @@ problem and its Alart–Curnier form (7.1)).
 Points that share no DOF with another point (the Delassus operator of the normal and
 tangential rows is block diagonal by point) are solved one by one: in closed form when the
 point's block is isotropic, w I (lumped mass, orthonormal rows on the point's own DOFs: every
-node-to-plane point), else by semismooth Newton on its 2 × 2 or 3 × 3 problem. Points that
-share DOFs are solved together by the same semismooth Newton method, to round-off; a problem
-it does not solve is flagged (``FRICTION_ERROR``) with the point and residual in
-``ZoneState.fric_info``, and the zone's owner refuses the step.
+node-to-plane point), else exactly by enumeration (separation, stick, slip directions from a
+quartic). Points that share DOFs are solved together: semismooth Newton on the Alart–Curnier
+function, then, if it stalls, Gauss–Seidel sweeps with the exact point solutions, to
+round-off; a problem neither solves is flagged (``FRICTION_ERROR``) with the point and
+residual in ``ZoneState.fric_info``, and the zone's owner refuses the step.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import numpy.typing as npt
 
 from crane_fem.kernels.zone import FRICTION_ERROR, Zone, ZoneState
 
-__all__ = ["TOL", "contacts_friction", "solve_coulomb"]
+__all__ = ["TOL", "contacts_friction", "solve_coulomb", "solve_point"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -28,6 +29,8 @@ BoolArray = npt.NDArray[np.bool_]
 #: Newton stops when ‖Φ‖∞ ≤ TOL × the impulse scale max |q_i| ρ_a (crane_fem.contact.friction).
 TOL = 1e-13
 MAX_ITER = 200
+#: Gauss–Seidel sweeps after a stalled Newton method.
+MAX_SWEEPS = 2000
 
 
 @numba.njit(cache=True)
@@ -119,12 +122,134 @@ def _point_closed_form(q: FloatArray, w: float, mu: float, r: FloatArray) -> Non
 
 
 @numba.njit(cache=True)
+def _residual_point(W: FloatArray, q: FloatArray, mu: float, r: FloatArray) -> float:
+    """(crane_fem.contact.friction.coulomb_residual) De Saxcé's natural-map residual of one
+    point, relative to its impulse scale."""
+    m = q.size
+    rho = 1.0 / W[0, 0]
+    u = W @ r + q
+    ut2 = 0.0
+    for i in range(1, m):
+        ut2 += u[i] * u[i]
+    x = np.empty(m)
+    x[0] = r[0] - rho * (u[0] + mu * np.sqrt(ut2))
+    for i in range(1, m):
+        x[i] = r[i] - rho * u[i]
+    p = np.zeros(m)  # projection of x on the cone ‖p_t‖ ≤ μ p_n
+    if m == 1 or mu == 0.0:
+        p[0] = max(0.0, x[0])
+    else:
+        nt2 = 0.0
+        for i in range(1, m):
+            nt2 += x[i] * x[i]
+        nt = np.sqrt(nt2)
+        if nt <= mu * x[0]:
+            p[:] = x
+        elif mu * nt > -x[0]:
+            a = (x[0] + mu * nt) / (1.0 + mu * mu)
+            p[0] = a
+            for i in range(1, m):
+                p[i] = mu * a * x[i] / nt
+    err = 0.0
+    scale = 0.0
+    for i in range(m):
+        err = max(err, abs(r[i] - p[i]))
+        scale = max(scale, abs(q[i]) * rho)
+    return err / scale if scale > 0.0 else err
+
+
+@numba.njit(cache=True)
+def _slip_angles(W: FloatArray, q: FloatArray, mu: float) -> FloatArray:
+    """(crane_fem.contact.friction._slip_angles) the slip angles φ of a point with two
+    tangential rows: roots of a quartic in tan φ/2, and π, polished by Newton on f(φ)."""
+    Wnn = W[0, 0]
+    w0, w1 = W[1, 0], W[2, 0]
+    A00, A01, A11 = W[1, 1], W[1, 2], W[2, 2]
+    qn, qt0, qt1 = q[0], q[1], q[2]
+    a1 = qn * w1 - Wnn * qt1
+    a2 = -qn * w0 + Wnn * qt0
+    b11 = -qn * mu * A01 + mu * w0 * qt1
+    b22 = qn * mu * A01 - mu * w1 * qt0
+    b12 = qn * mu * (A00 - A11) - mu * w0 * qt0 + mu * w1 * qt1
+    poly = np.array([b11 - a1, 2 * (a2 - b12), 4 * b22 - 2 * b11, 2 * (a2 + b12), a1 + b11])
+    phis = np.empty(5)
+    n = 1
+    phis[0] = np.pi
+    if np.any(poly != 0.0):
+        for t in np.roots(poly.astype(np.complex128)):
+            if abs(t.imag) <= 1e-6 * max(1.0, abs(t)):
+                phis[n] = 2.0 * np.arctan(t.real)
+                n += 1
+    for k in range(n):
+        ph = phis[k]
+        for _ in range(8):
+            c, s = np.cos(ph), np.sin(ph)
+            val = a1 * c + a2 * s + b11 * c * c + b12 * c * s + b22 * s * s
+            der = -a1 * s + a2 * c - 2 * b11 * c * s + b12 * (c * c - s * s) + 2 * b22 * s * c
+            if der == 0.0:
+                break
+            ph -= val / der
+        phis[k] = ph
+    return phis[:n]
+
+
+@numba.njit(cache=True)
+def solve_point(W: FloatArray, q: FloatArray, mu: float, r: FloatArray) -> bool:
+    """(crane_fem.contact.friction.solve_point) the exact impulse r of one point with any
+    Delassus block W: separation, stick, or the slip candidate of smallest residual.
+    Returns whether it solves the problem to round-off."""
+    m = q.size
+    for i in range(m):
+        r[i] = 0.0
+    if q[0] >= 0.0:
+        return True
+    if m == 1 or mu == 0.0:
+        r[0] = -q[0] / W[0, 0]
+        return True
+    stick = -np.linalg.solve(W, q)
+    st2 = 0.0
+    for i in range(1, m):
+        st2 += stick[i] * stick[i]
+    if stick[0] > 0.0 and np.sqrt(st2) <= mu * stick[0]:
+        r[:] = stick
+        return True
+    if m == 2:
+        dirs = np.array([[1.0, 0.0], [-1.0, 0.0]])
+    else:
+        phis = _slip_angles(W, q, mu)
+        dirs = np.empty((phis.size, 2))
+        for k in range(phis.size):
+            dirs[k, 0] = np.cos(phis[k])
+            dirs[k, 1] = np.sin(phis[k])
+    best = np.inf
+    cand = np.empty(m)
+    for k in range(dirs.shape[0]):
+        a = W[0, 0]
+        for i in range(1, m):
+            a -= mu * W[0, i] * dirs[k, i - 1]
+        if a == 0.0:
+            continue
+        rn = -q[0] / a
+        if rn <= 0.0:
+            continue
+        cand[0] = rn
+        for i in range(1, m):
+            cand[i] = -mu * rn * dirs[k, i - 1]
+        res = _residual_point(W, q, mu, cand)
+        if res < best:
+            best = res
+            r[:] = cand
+    return best <= 10 * TOL
+
+
+@numba.njit(cache=True)
 def solve_coulomb(
     W: FloatArray, q: FloatArray, ptr: IntArray, mu: FloatArray, r: FloatArray
 ) -> tuple[float, int]:
     """r solving (7.1) by semismooth Newton with an Armijo line search on ½‖Φ‖², from each
-    point's closed form with its block taken as W_nn I. Returns (‖Φ‖∞ relative to the
-    impulse scale, the point where it is largest); converged when ≤ :data:`TOL`.
+    point's closed form with its block taken as W_nn I, then Gauss–Seidel sweeps with
+    :func:`solve_point` if Newton stalls. Returns (‖Φ‖∞ relative to the impulse scale, the
+    point where it is largest); converged when ≤ :data:`TOL`.
     Not collective: every rank holds the same W and q and gets the same answer."""
     m = q.size
     na = ptr.size - 1
@@ -161,6 +286,25 @@ def solve_coulomb(
         phi[:] = phi_t
         J[:, :] = J_t
         merit = merit_t
+    res = 0.0
+    for i in range(m):
+        res = max(res, abs(phi[i]))
+    if res > TOL * scale:
+        for _ in range(MAX_SWEEPS):
+            for a in range(na):
+                i0, i1 = ptr[a], ptr[a + 1]
+                qa = q[i0:i1].copy()
+                for i in range(i0, i1):
+                    for j in range(m):
+                        if j < i0 or j >= i1:
+                            qa[i - i0] += W[i, j] * r[j]
+                solve_point(np.ascontiguousarray(W[i0:i1, i0:i1]), qa, mu[a], r[i0:i1])
+            _alart_curnier(W, q, ptr, mu, r, phi, J)
+            res = 0.0
+            for i in range(m):
+                res = max(res, abs(phi[i]))
+            if res <= TOL * scale:
+                break
     res = 0.0
     worst = 0
     for a in range(na):
@@ -226,10 +370,8 @@ def contacts_friction(
                 for b in range(nk):
                     Wl[1 + a, 1 + b] = z.W_tt[k0 + a, k0 + b]
             rl = np.empty(nk + 1)
-            ptr = np.array([0, nk + 1], dtype=np.int64)
-            res, _ = solve_coulomb(Wl, ql, ptr, z.mu[c : c + 1], rl)
-            if res > TOL:
-                _fail(st, flags, c, res)
+            if not solve_point(Wl, ql, z.mu[c], rl):
+                _fail(st, flags, c, _residual_point(Wl, ql, z.mu[c], rl))
             lam_c[c] = rl[0]
             for a in range(nk):
                 lam_t[k0 + a] = rl[1 + a]

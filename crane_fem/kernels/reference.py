@@ -12,7 +12,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse
 
-from crane_fem.contact.friction import coulomb_point, solve_coulomb
+from crane_fem.contact.friction import coulomb_point, coulomb_residual, solve_coulomb, solve_point
 from crane_fem.contact.lcp import solve_lcp, solve_mixed_lcp_blocks
 from crane_fem.kernels import explicit as kx
 from crane_fem.kernels.friction import TOL
@@ -74,6 +74,15 @@ def friction_impulses(
         if len(pts) == 1 and z.iso[pts[0]]:
             c = pts[0]
             scatter(rows, coulomb_point(qf[rows], float(z.W_cc[c, c]), float(z.mu[c])))
+            continue
+        if len(pts) == 1:
+            c = pts[0]
+            sub = Wf[np.ix_(rows, rows)]
+            r, found = solve_point(sub, qf[rows], float(z.mu[c]))
+            if not found:
+                ptr1, mu1 = np.array([0, len(rows)]), z.mu[[c]]
+                worst = max(worst, coulomb_residual(sub, qf[rows], ptr1, mu1, r), 2 * TOL)
+            scatter(rows, r)
             continue
         ptr = np.cumsum([0, *(1 + int(z.t_count[c]) for c in pts)])
         r, res, _ = solve_coulomb(Wf[np.ix_(rows, rows)], qf[rows], ptr, z.mu[pts])
