@@ -33,6 +33,7 @@ from crane_fem.points import GroundAcceleration, PointMotions, default_points
 from crane_fem.reactions import SupportReactions
 from crane_fem.run_record import RunResult, StopRequest, finish_summary, progress_bar
 from crane_fem.scenario import Scenario
+from crane_fem.slip import WheelSlip, pair_reach
 from crane_fem.stability import EnergyGrowthMonitor
 from crane_fem.stress import VonMises
 from crane_fem.subdomains import Subdomain
@@ -242,6 +243,32 @@ def _support_reactions(sc: Scenario, sim: Simulation) -> SupportReactions | None
     return None
 
 
+def _wheel_slip(sim: Simulation) -> WheelSlip | None:
+    """The crane wheels' slip on their rails, with the reach of each wheel's pairs from its
+    rail patch's vertices (collective; None without a crane)."""
+    crane, sub = sim.mesh.crane, sim.models.explicit
+    if crane is None or sub is None:
+        return None
+    mesh = sim.mesh.tagged.mesh
+    n_own = mesh.topology.index_map(0).size_local
+    local = np.arange(n_own, dtype=np.int32)
+    ids = np.asarray(mesh.topology.index_map(0).local_to_global(local), dtype=np.int64)
+    rail = crane.pairs[:, 1]
+    mine = np.flatnonzero(np.isin(ids, rail))
+    xyz = np.asarray(mesh.geometry.x)[dolfinx.mesh.entities_to_geometry(mesh, 0, local[mine])]
+    got = sim.mesh.comm.allgather((ids[mine], xyz.reshape(-1, 3)))
+    gid = np.concatenate([g for g, _ in got])
+    pos = np.concatenate([x for _, x in got])
+    where = {int(g): pos[i, :2] for i, g in enumerate(gid)}
+    reach = np.array(
+        [
+            pair_reach(np.array([where[int(r)] for r in rail[crane.wheel == k]]))
+            for k in range(1, int(crane.wheel.max()) + 1)
+        ]
+    )
+    return WheelSlip(sub, crane.pairs, crane.wheel, reach)
+
+
 def _point_motions(sc: Scenario, sim: Simulation) -> PointMotions | None:
     """The absolute motions measured for response spectra (none without points)."""
     points = default_points(sc)
@@ -299,8 +326,9 @@ class LoopBooks:
     """What the time loop accumulates from the records (global values; the reactions' last
     velocities are this rank's): the history rows, the contact peaks, the divergence
     monitor, the bridge stress, the support reactions, the measured points and their last
-    row, the energy drift and its scale, the interface energy's steps, the micro-step times
-    and contact flags, the XDMF frames written. A checkpoint saves and restores it whole."""
+    row, the wheels' slip, the energy drift and its scale, the interface energy's steps, the
+    micro-step times and contact flags, the XDMF frames written. A checkpoint saves and
+    restores it whole."""
 
     history: dict[str, list[float]]
     peaks: ContactPeaks
@@ -308,6 +336,7 @@ class LoopBooks:
     stress: BridgeStress | None = None
     reactions: SupportReactions | None = None
     motions: PointMotions | None = None
+    slip: WheelSlip | None = None
     point_row: dict[str, float] = field(default_factory=dict)
     micro_t: list[FloatArray] = field(default_factory=list)
     micro_active: list[npt.NDArray[np.bool_]] = field(default_factory=list)
@@ -318,7 +347,7 @@ class LoopBooks:
     ifd_prev: float = 0.0
     frames: int = 0
 
-    _PARTS = ("peaks", "monitor", "stress", "reactions", "motions")
+    _PARTS = ("peaks", "monitor", "stress", "reactions", "motions", "slip")
     _SCALARS = ("scale", "max_drift", "ifd_min_step", "ifd_prev", "frames")
 
     def state_dict(self) -> dict[str, Any]:
@@ -491,6 +520,7 @@ def run_coupled(
         BridgeStress(sim) if sim.mesh.crane is not None else None,
         _support_reactions(sc, sim) if sim.mesh.crane is not None else None,
         motions,
+        _wheel_slip(sim),
     )
     history, peaks, monitor = b.history, b.peaks, b.monitor
     stress, reactions = b.stress, b.reactions
@@ -535,6 +565,9 @@ def run_coupled(
                     n_checkpoints += 1
                 e = rec.energy
                 _growth_check(monitor, sim, rec)
+                if b.slip is not None:  # a wheel beyond its pairs' reach stops the run
+                    assert rec.explicit_u is not None
+                    b.slip.update(rec.t, rec.explicit_u)
                 if b.total0 is None:
                     b.total0 = e["total"]
                 b.scale = max(
@@ -657,6 +690,9 @@ def run_coupled(
             summary["peak_bridge_von_mises_t"] = stress.t_peak
             summary["peak_bridge_von_mises_location_m"] = stress.location.tolist()
         summary.update(_peak_tables(peaks))
+        if b.slip is not None and "wheels" in summary:
+            for k, v in b.slip.table().items():
+                summary["wheels"][k].update(v)
         if reactions is not None:
             summary["supports"] = reactions.table()
             reactions.destroy()
