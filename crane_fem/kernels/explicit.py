@@ -312,7 +312,7 @@ def _micro(
             st.v_int[i] = 0.5 * (st.v_int[i] + vh[i])
         for r in range(p):
             out.lam[r] = lam[r]
-        for k in range(nt):
+        for k in range(min(nt, out.lam_t.size)):  # (a StepsOut made without it: empty)
             out.lam_t[k] = lam_t[k]
         for i in range(n_g):
             out.w[i] = st.w_prev[i]
