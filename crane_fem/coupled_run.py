@@ -691,8 +691,8 @@ def run_coupled(
             summary["peak_bridge_von_mises_location_m"] = stress.location.tolist()
         summary.update(_peak_tables(peaks))
         if b.slip is not None and "wheels" in summary:
-            for k, v in b.slip.table().items():
-                summary["wheels"][k].update(v)
+            for k, slip in b.slip.table().items():
+                summary["wheels"][k].update(slip)
         if reactions is not None:
             summary["supports"] = reactions.table()
             reactions.destroy()
