@@ -70,6 +70,22 @@ def mpiexec_env() -> dict[str, str]:
     return {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
 
+def run_serial_and_two_ranks(args: list[str], tmp: Path) -> tuple[Path, Path]:
+    """``crane-fem run ARGS`` serially and under ``mpiexec -n 2`` (one BLAS thread per rank,
+    :func:`mpiexec_env`), into ``tmp/serial`` and ``tmp/mpi``; their directories."""
+    import subprocess
+    import sys
+
+    bindir = Path(sys.executable).parent
+    base = [str(bindir / "crane-fem"), "run", *args]
+    serial, par = tmp / "serial", tmp / "mpi"
+    env = mpiexec_env()
+    subprocess.run([*base, "-o", str(serial)], check=True, capture_output=True, env=env)
+    cmd = [str(bindir / "mpiexec"), "-n", "2", *base, "-o", str(par)]
+    subprocess.run(cmd, check=True, capture_output=True, env=env)
+    return serial, par
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Tests marked ``serial`` launch their own MPI jobs: run them only in the serial pass."""
     if COMM.size == 1:

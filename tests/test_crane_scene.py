@@ -18,6 +18,7 @@ from conftest import (
     assert_same_histories,
     mpiexec_env,
     reference,
+    run_serial_and_two_ranks,
 )
 
 from crane_fem.cli import main
@@ -242,20 +243,11 @@ def test_quick_scene_mpiexec_same_histories(tmp_path, method) -> None:
     """`mpiexec -n 2 crane-fem run` on the quick scene = serial (≤ 1e-8 relative), with
     contact pairs and interface DOFs on both ranks; "hybrid": with its three kinds of macro
     step, decided the same way on both ranks."""
-    mpiexec = Path(sys.executable).parent / "mpiexec"
-    exe = Path(sys.executable).parent / "crane-fem"
-    base = [str(exe), "run", str(QUICK), "--set", "output.xdmf=false", "--set", "time.end=0.03"]
-    base += ["--set", f"coupling.method='{method}'"]
-    serial, par = tmp_path / "serial", tmp_path / "mpi"
+    args = [str(QUICK), "--set", "output.xdmf=false", "--set", "time.end=0.03"]
+    args += ["--set", f"coupling.method='{method}'"]
     # One BLAS/OpenMP thread in both runs (mpiexec_env): threaded kernels sum in an order
     # that may change from run to run, and the serial run is then not reproducible to the bit.
-    subprocess.run([*base, "-o", str(serial)], check=True, capture_output=True, env=mpiexec_env())
-    subprocess.run(
-        [str(mpiexec), "-n", "2", *base, "-o", str(par)],
-        check=True,
-        capture_output=True,
-        env=mpiexec_env(),
-    )
+    serial, par = run_serial_and_two_ranks(args, tmp_path)
     s2 = json.loads((par / "summary.json").read_text())
     s1 = json.loads((serial / "summary.json").read_text())
     assert s2["mpi_size"] == 2

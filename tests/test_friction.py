@@ -11,13 +11,11 @@ friction; bad input; serial = mpiexec -n 2.
 
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_same_histories, mpiexec_env
+from conftest import COMM, assert_same_histories, run_serial_and_two_ranks
 
 from crane_fem.contact import ContactSet
 from crane_fem.contact import friction as nf
@@ -485,17 +483,8 @@ def test_bad_friction_input_one_line_error(scene, overrides, fragment) -> None:
 def test_serial_and_two_ranks_agree(tmp_path) -> None:
     """The sliding block under mpiexec -n 2 (its bottom points on both ranks) and serially:
     the same history to round-off (1e-8 of each column's scale; measured 1e-11)."""
-    mpiexec = Path(sys.executable).parent / "mpiexec"
-    exe = Path(sys.executable).parent / "crane-fem"
-    base = [str(exe), "run", str(SLIDING), "--set", "output.every=1", "--no-progress"]
-    serial, par = tmp_path / "serial", tmp_path / "mpi"
-    subprocess.run([*base, "-o", str(serial)], check=True, capture_output=True, env=mpiexec_env())
-    subprocess.run(
-        [str(mpiexec), "-n", "2", *base, "-o", str(par)],
-        check=True,
-        capture_output=True,
-        env=mpiexec_env(),
-    )
+    args = [str(SLIDING), "--set", "output.every=1", "--no-progress"]
+    serial, par = run_serial_and_two_ranks(args, tmp_path)
     s2 = json.loads((par / "summary.json").read_text())
     assert s2["mpi_size"] == 2
     assert all(n > 0 for n in s2["contact_dofs_per_rank"]), s2["contact_dofs_per_rank"]

@@ -3,14 +3,12 @@ the reduced system's modes against the dense form, the quick crane against the f
 side, every coupling method with it, serial = mpiexec -n 2, and its bad input."""
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_same_histories, mpiexec_env
+from conftest import COMM, assert_same_histories, run_serial_and_two_ranks
 from mpi4py import MPI
 
 from crane_fem.cli import main
@@ -208,16 +206,10 @@ def test_reduced_side_mpiexec_same_histories(tmp_path) -> None:
     """`mpiexec -n 2` with the reduced side = serial to 1e-8 relative: the basis is built by
     distributed solves and eigensolves and reduced to the same dense operators on every
     rank (round-off apart), the interface and contact rows on both ranks."""
-    mpiexec = Path(sys.executable).parent / "mpiexec"
-    exe = Path(sys.executable).parent / "crane-fem"
-    base = [str(exe), "run", str(QUICK), "--set", "output.xdmf=false", "--set", "time.end=0.03"]
+    args = [str(QUICK), "--set", "output.xdmf=false", "--set", "time.end=0.03"]
     for s in [*REDUCED, "subdomain.1.modes=60"]:
-        base += ["--set", s]
-    serial, par = tmp_path / "serial", tmp_path / "mpi"
-    env = mpiexec_env()
-    subprocess.run([*base, "-o", str(serial)], check=True, capture_output=True, env=env)
-    cmd = [str(mpiexec), "-n", "2", *base, "-o", str(par)]
-    subprocess.run(cmd, check=True, capture_output=True, env=env)
+        args += ["--set", s]
+    serial, par = run_serial_and_two_ranks(args, tmp_path)
     s1 = json.loads((serial / "summary.json").read_text())
     s2 = json.loads((par / "summary.json").read_text())
     assert s2["mpi_size"] == 2
