@@ -435,12 +435,16 @@ def _resume(ckpt: Checkpoint, sim: Simulation, books: LoopBooks, restart: Path) 
 
 def _peak_tables(peaks: ContactPeaks) -> dict[str, Any]:
     """The summary's peak tables from every micro step: ``wheels`` keyed by wheel number for
-    a crane (its contact groups are ``wheel_<k>``), else ``contact_groups`` keyed by name."""
+    a crane (its contact groups are ``wheel_<k>``) and, with flanges, ``flanges`` keyed
+    ``in_<k>``/``out_<k>`` (groups ``flange_in_<k>``/``flange_out_<k>``), else
+    ``contact_groups`` keyed by name."""
     table = peaks.table()
     if not table:
         return {}
-    if all(name.startswith("wheel_") for name in table):
-        return {"wheels": {name.removeprefix("wheel_"): v for name, v in table.items()}}
+    if all(name.startswith(("wheel_", "flange_")) for name in table):
+        out = {"wheels": {n.removeprefix("wheel_"): v for n, v in table.items() if n[0] == "w"}}
+        flanges = {n.removeprefix("flange_"): v for n, v in table.items() if n[0] == "f"}
+        return out | ({"flanges": flanges} if flanges else {})
     return {"contact_groups": table}
 
 
@@ -510,7 +514,10 @@ def run_coupled(
     method = it.method
     rows = HistoryRows(sim)
     contacts = sim.constraints.contacts
-    static = md.preload.wheel_force if md.preload is not None else None
+    static = None
+    if md.preload is not None:  # the flange groups after the wheels carry no static force
+        static = np.zeros(len(contacts.group_names))
+        static[: md.preload.wheel_force.size] = md.preload.wheel_force
     motions = _point_motions(sc, sim)
     columns = rows.columns + (motions.columns if motions is not None else [])
     b = LoopBooks(

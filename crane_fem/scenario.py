@@ -90,6 +90,10 @@ class BarModel(_Section):
         return ["left", "right"] if self.split is not None else []
 
 
+#: The crane's keys that are not dimensions of its geometry (nor recorded by its mesh).
+_NOT_GEOMETRY = ("kind", "hoisted_mass", "wheel_friction", "wheel_braked", "mesh")
+
+
 class CraneModel(_Section):
     """Bi-girder overhead-crane mock-up (crane_fem.geometry.crane.CraneGeometry; any of its
     dimensions may be given, metres). Groups: ``bridge_implicit``, ``trolley_frame``,
@@ -99,7 +103,12 @@ class CraneModel(_Section):
     ``flanges`` gives each wheel two flanges hanging ``flange_depth`` down either side of its
     rail, ``flange_clearance`` off the rail sides, ``flange_thickness`` thick (part of
     ``wheel_k``; the other flange keys are ignored without it): lateral flange/rail-side
-    node-to-node contacts (CraneMesh.flange_pairs)."""
+    node-to-node contacts (CraneMesh.flange_pairs), frictionless unilateral rows named
+    ``flange_in_k``/``flange_out_k``. ``wheel_friction`` (μ ≥ 0) is the Coulomb coefficient of
+    the wheel/rail pairs (0: frictionless, as before); with ``wheel_braked`` (default true: a
+    crane parked for an earthquake has its brakes set, the usual qualification assumption) the
+    wheels stick by friction both across (x) and along (y) the rail, else they roll freely
+    along it (friction across only)."""
 
     kind: Literal["crane"]
     span: PositiveFloat = 4.0
@@ -128,6 +137,8 @@ class CraneModel(_Section):
     flange_depth: PositiveFloat = 0.02
     flange_thickness: PositiveFloat = 0.02
     hoisted_mass: NonNegativeFloat = 0.0
+    wheel_friction: NonNegativeFloat = 0.0
+    wheel_braked: bool = True
     mesh: str | None = None
 
     @property
@@ -139,7 +150,7 @@ class CraneModel(_Section):
     def geometry(self) -> Any:
         from crane_fem.geometry.crane import CraneGeometry
 
-        return CraneGeometry(**self.model_dump(exclude={"kind", "hoisted_mass", "mesh"}))
+        return CraneGeometry(**self.model_dump(exclude=set(_NOT_GEOMETRY)))
 
 
 class BoxBeamModel(_Section):
@@ -970,7 +981,7 @@ def _resolve_paths(data: dict[str, Any], base: Path) -> None:
 
 #: The crane model's keys that describe its mesh (those of
 #: :class:`crane_fem.geometry.crane.CraneGeometry`).
-_MESH_KEYS = tuple(k for k in CraneModel.model_fields if k not in ("kind", "hoisted_mass", "mesh"))
+_MESH_KEYS = tuple(k for k in CraneModel.model_fields if k not in _NOT_GEOMETRY)
 
 
 def _fill_from_mesh(mdl: dict[str, Any]) -> tuple[list[str], dict[str, float] | None]:

@@ -21,7 +21,7 @@ from crane_fem.preload import Preload
 from crane_fem.scenario import BlockModel, CraneModel, Scenario
 from crane_fem.subdomains import Subdomain, global_ids
 
-__all__ = ["ConstraintStage", "build_constraints"]
+__all__ = ["FLANGE_GROUPS", "ConstraintStage", "build_constraints"]
 
 IntArray = npt.NDArray[np.int64]
 
@@ -95,11 +95,23 @@ def _plane_contacts(sc: Scenario, mesh: MeshStage, sub: Subdomain) -> ContactSet
 
 
 def _pair_contacts(
-    comm: MPI.Comm, sub: Subdomain, crane: CraneMesh, preload: Preload | None, span: float
+    comm: MPI.Comm,
+    sub: Subdomain,
+    crane: CraneMesh,
+    preload: Preload | None,
+    mdl: CraneModel,
 ) -> ContactSet:
-    """Vertical node-to-node contacts g = u_z(wheel) − u_z(rail) ≥ 0 (touching at t = 0)."""
+    """Vertical node-to-node contacts g = u_z(wheel) − u_z(rail) ≥ 0 (touching at t = 0).
+
+    With ``mdl.wheel_friction`` μ > 0 each pair also gets the tangential rows of the relative
+    velocity v(wheel) − v(rail): t₁ = e_x (across the rail) and, for braked wheels only,
+    t₂ = e_y (along it: a free wheel rolls, no friction along the rail). The rows sit on the
+    pair's own two vertices, orthonormal, so each point's Delassus block is
+    (1/m_wheel + 1/m_rail) I (the closed form of crane_fem.kernels.friction)."""
     pairs = crane.pairs
+    n_t = 2 if mdl.wheel_braked else 1
     rows, dofs, coeffs = [], [], []
+    t_rows, t_dofs, t_coeffs = [], [], []
     for side, coeff in ((0, 1.0), (1, -1.0)):
         order = np.argsort(pairs[:, side])
         sorted_v = pairs[order, side]
@@ -107,18 +119,32 @@ def _pair_contacts(
         rows.append(order[pos])
         dofs.append(blocks * sub.bs + 2)
         coeffs.append(np.full(blocks.size, coeff))
+        comps = np.arange(n_t)
+        t_rows.append((n_t * order[pos][:, None] + comps[None, :]).ravel())
+        t_dofs.append((blocks[:, None] * sub.bs + comps[None, :]).ravel())
+        t_coeffs.append(np.full(blocks.size * n_t, coeff))
     have = comm.allreduce(sum(r.size for r in rows), op=MPI.SUM)
     if have != 2 * pairs.shape[0]:
         raise ScenarioError(
             "the wheels and their rail zones must belong to explicit (cd-lagrange) subdomains"
         )
     names = [f"wheel_{k}" for k in range(1, 5)]
-    g0 = np.zeros(pairs.shape[0])
+    n = pairs.shape[0]
+    g0 = np.zeros(n)
     if preload is not None:
         # Start with every gap at exactly 0: the preload's residual interpenetration
         # F/k_p is an artefact of its penalty springs (see crane_fem.preload).
         d = preload.displacement
         g0 = np.where(preload.closed, -(d[pairs[:, 0], 2] - d[pairs[:, 1], 2]), 0.0)
+    mu = tangents = None
+    if mdl.wheel_friction > 0.0:
+        mu = np.full(n, mdl.wheel_friction)
+        tangents = TangentRows(
+            np.repeat(np.arange(n, dtype=np.int64), n_t),
+            np.concatenate(t_rows).astype(np.int64),
+            np.concatenate(t_dofs).astype(np.int64),
+            np.concatenate(t_coeffs),
+        )
     return ContactSet(
         comm,
         g0,
@@ -128,6 +154,55 @@ def _pair_contacts(
         (crane.wheel - 1).astype(np.int64),
         names,
         # A pair held closed drifts by round-off (ε |u|): 1e-12 of the span absorbs it.
+        tol=1e-12 * mdl.span,
+        mu=mu,
+        tangents=tangents,
+    )
+
+
+#: The flange contact groups, after the four ``wheel_k``: group 2(k − 1) + (0 inner, 1 outer).
+FLANGE_GROUPS = [f"flange_{side}_{k}" for k in range(1, 5) for side in ("in", "out")]
+
+
+def _flange_contacts(
+    comm: MPI.Comm, sub: Subdomain, crane: CraneMesh, preload: Preload | None, span: float
+) -> ContactSet:
+    """Lateral node-to-node contacts of the flanges on the rail sides (frictionless):
+    g = g0 + n_x (u_x(flange) − u_x(rail)) ≥ 0, n_x = ±1 from the rail towards the flange.
+
+    g0 is the clearance (CraneMesh.flange_gap); the explicit side starts from the preload's
+    displacement d, so the gap at t = 0 is g0 + n_x (d_x(flange) − d_x(rail)): the lateral
+    strain of the weight, physical and kept, unless it would start closed past contact (a
+    zero clearance), then g0 makes it start at exactly 0."""
+    pairs = crane.flange_pairs
+    nx = crane.flange_normal[:, 0]
+    rows, dofs, coeffs = [], [], []
+    for side, sign in ((0, 1.0), (1, -1.0)):
+        order = np.argsort(pairs[:, side])
+        blocks, pos = sub.owned_dofs_of(pairs[order, side])
+        rows.append(order[pos])
+        dofs.append(blocks * sub.bs)
+        coeffs.append(sign * nx[order[pos]])
+    have = comm.allreduce(sum(r.size for r in rows), op=MPI.SUM)
+    if have != 2 * pairs.shape[0]:
+        raise ScenarioError(
+            "the flanges and the rail sides they face must belong to explicit (cd-lagrange) "
+            "subdomains (wheel_k and zone_k)"
+        )
+    g0 = crane.flange_gap.astype(np.float64, copy=True)
+    if preload is not None:
+        d = preload.displacement
+        shift = nx * (d[pairs[:, 0], 0] - d[pairs[:, 1], 0])
+        g0 = np.maximum(0.0, g0 + shift) - shift
+    group = 2 * (crane.flange_wheel - 1) + np.where(crane.flange_inner, 0, 1)
+    return ContactSet(
+        comm,
+        g0,
+        np.concatenate(rows).astype(np.int64),
+        np.concatenate(dofs).astype(np.int64),
+        np.concatenate(coeffs),
+        group.astype(np.int64),
+        list(FLANGE_GROUPS),
         tol=1e-12 * span,
     )
 
@@ -148,7 +223,10 @@ def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> Cons
         if E_sub is None:
             raise ScenarioError("the crane's wheel/rail contacts need an explicit subdomain")
         assert isinstance(sc.model, CraneModel)
-        contacts = _pair_contacts(comm, E_sub, mesh.crane, models.preload, sc.model.span)
+        contacts = _pair_contacts(comm, E_sub, mesh.crane, models.preload, sc.model)
+        if mesh.crane.flange_pairs.shape[0] > 0:
+            flanges = _flange_contacts(comm, E_sub, mesh.crane, models.preload, sc.model.span)
+            contacts = ContactSet.stack(contacts, flanges)
     elif sc.contact:
         if E_sub is None:
             raise ScenarioError("contact: needs an explicit (cd-lagrange) subdomain")
