@@ -27,9 +27,10 @@ FLANGE_KEYS = [f"{side}_{k}" for k in range(1, 5) for side in ("in", "out")]
 
 
 def test_flange_groups_start_at_the_clearance(shared_tmp) -> None:
-    """The flange scene (three El Centro components) runs a short window: eight flange groups
-    after the four wheels, every flange gap starting at the clearance (to the preload's
-    lateral strain, tens of micrometres), none touched this early."""
+    """The flange scene (three El Centro components, braked wheels μ = 0.3) runs a short
+    window: eight flange groups after the four wheels, every flange gap starting at the
+    clearance (to the preload's lateral strain, tens of micrometres), none touched this
+    early."""
     sc = load_scenario(SCENE, ["time.end=0.002", "output.xdmf=false"])
     run = run_scenario(sc, shared_tmp, COMM, progress=False)
     s, h = run.summary, run.history
@@ -45,8 +46,9 @@ def test_flange_groups_start_at_the_clearance(shared_tmp) -> None:
 def test_lateral_shake_strikes_the_flanges_and_guides_the_wheels(shared_tmp) -> None:
     """The lateral shake that drives frictionless, unguided wheels 12.5 mm off their pairs
     (tests/test_slip.py) now closes the 5 mm flange gaps: every flange strikes its rail
-    (measured: peak forces 0.36–0.68 MN, 1–3 impacts each over 0.03 s) and the wheels stay
-    guided, their slip across ≈ the clearance (measured 5.64–5.66 mm, the rest elastic), well
+    (measured, braked μ = 0.3 as the scene: peak forces 0.37–0.54 MN, 1–3 impacts each over
+    0.03 s; frictionless 0.36–0.68 MN) and the wheels stay guided, their slip across ≈ the
+    clearance (measured 5.55–5.57 mm; frictionless 5.64–5.66 mm; the rest elastic), well
     inside the pairs' reach: no SlipError."""
     sc = load_scenario(SCENE, ["time.end=0.03", "output.xdmf=false", LATERAL])
     s = run_scenario(sc, shared_tmp, COMM, progress=False).summary
