@@ -98,8 +98,9 @@ class WheelSlip:
                 f"wheel {k + 1} slid {worst[k] * 1e3:.2f} mm on its rail at t = {t:.6g} s "
                 f"(across {slip[k, 0] * 1e3:+.2f} mm, along {slip[k, 1] * 1e3:+.2f} mm), "
                 f"beyond the {self.reach[k] * 1e3:.2f} mm its node-to-node contact pairs "
-                "can follow (half their spacing): the wheel/rail contacts are frictionless "
-                "and unguided, so horizontal shaking drifts the trolley"
+                "can follow (half their spacing); the trolley is held on its rails only by "
+                "model.wheel_friction (braked: model.wheel_braked) and, across them, by "
+                "model.flanges"
             )
         return slip
 
