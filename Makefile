@@ -38,7 +38,7 @@ demo: $(BIN)/.installed
 	$(BIN)/crane-fem run demos/crane.toml -o out/crane/heterogeneous
 	$(BIN)/crane-fem run demos/crane.toml -o out/crane/explicit --set coupling.method='"monolithic"'
 	$(BIN)/crane-fem plot out/crane
-	@echo "make demo: outputs in out/crane/ (heterogeneous/ and explicit/: history.csv, summary.json, solution_*.xdmf for ParaView; figures/*.png; comparison.json)"
+	@echo "make demo: outputs in out/crane/ (heterogeneous/ and explicit/: history.csv, summary.json, results.csv, spectra.csv, solution_*.xdmf for ParaView; figures/*.png; comparison.json)"
 
 demo-bar: $(BIN)/.installed
 	$(BIN)/crane-fem run demos/bar_impact.toml -o out/bar_impact
