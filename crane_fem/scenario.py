@@ -23,6 +23,7 @@ __all__ = [
     "Contact",
     "Integrator",
     "Scenario",
+    "Wheel",
     "apply_overrides",
     "apply_unsets",
     "load_scenario",
@@ -91,7 +92,7 @@ class BarModel(_Section):
 
 
 #: The crane's keys that are not dimensions of its geometry (nor recorded by its mesh).
-_NOT_GEOMETRY = ("kind", "hoisted_mass", "wheel_friction", "wheel_braked", "mesh")
+_NOT_GEOMETRY = ("kind", "hoisted_mass", "mesh")
 
 
 class CraneModel(_Section):
@@ -104,11 +105,8 @@ class CraneModel(_Section):
     rail, ``flange_clearance`` off the rail sides, ``flange_thickness`` thick (part of
     ``wheel_k``; the other flange keys are ignored without it): lateral flange/rail-side
     node-to-node contacts (CraneMesh.flange_pairs), frictionless unilateral rows named
-    ``flange_in_k``/``flange_out_k``. ``wheel_friction`` (μ ≥ 0) is the Coulomb coefficient of
-    the wheel/rail pairs (0: frictionless, as before); with ``wheel_braked`` (default true: a
-    crane parked for an earthquake has its brakes set, the usual qualification assumption) the
-    wheels stick by friction both across (x) and along (y) the rail, else they roll freely
-    along it (friction across only)."""
+    ``flange_in_k``/``flange_out_k``. The wheels' friction and brakes are the ``[wheel]``
+    section's."""
 
     kind: Literal["crane"]
     span: PositiveFloat = 4.0
@@ -137,8 +135,6 @@ class CraneModel(_Section):
     flange_depth: PositiveFloat = 0.02
     flange_thickness: PositiveFloat = 0.02
     hoisted_mass: NonNegativeFloat = 0.0
-    wheel_friction: NonNegativeFloat = 0.0
-    wheel_braked: bool = True
     mesh: str | None = None
 
     @property
@@ -289,6 +285,17 @@ class Contact(_Section):
     @property
     def label(self) -> str:
         return self.name if self.name is not None else self.type
+
+
+class Wheel(_Section):
+    """The crane's wheels on their rails: ``friction`` is the Coulomb coefficient μ ≥ 0 of the
+    wheel/rail pairs (0: frictionless, as before); ``braked`` (default true: a crane parked
+    for an earthquake has its brakes set, the usual qualification assumption) makes the
+    wheels stick by friction both across (x) and along (y) the rail, else they roll freely
+    along it (friction across only)."""
+
+    friction: NonNegativeFloat = 0.0
+    braked: bool = True
 
 
 class Time(_Section):
@@ -520,6 +527,7 @@ class Scenario(_Section):
     loading: Loading = Loading()
     output: Output = Output()
     spectra: Spectra = Spectra()
+    wheel: Wheel = Wheel()
     monitor: Monitor = Monitor()
     subdomain: list[SubdomainSpec] = []
     coupling: Coupling | None = None
@@ -692,6 +700,12 @@ class Scenario(_Section):
             raise ValueError(
                 "integrator.scheme: with [[subdomain]] the scheme is given per subdomain"
             )
+        return self
+
+    @model_validator(mode="after")
+    def _wheels_of_a_crane(self) -> Scenario:
+        if self.wheel != Wheel() and not isinstance(self.model, CraneModel):
+            raise ValueError("wheel: applies to model.kind 'crane' only (its wheel/rail pairs)")
         return self
 
     @model_validator(mode="after")

@@ -99,8 +99,7 @@ class WheelSlip:
                 f"(across {slip[k, 0] * 1e3:+.2f} mm, along {slip[k, 1] * 1e3:+.2f} mm), "
                 f"beyond the {self.reach[k] * 1e3:.2f} mm its node-to-node contact pairs "
                 "can follow (half their spacing); the trolley is held on its rails only by "
-                "model.wheel_friction (braked: model.wheel_braked) and, across them, by "
-                "model.flanges"
+                "wheel.friction (braked: wheel.braked) and, across them, by model.flanges"
             )
         return slip
 

@@ -1,6 +1,6 @@
 """The crane's guiding and holding on its rails (issue 16 items 1, 2, 4): flange/rail-side
 contact rows (lateral, frictionless, groups ``flange_{in,out}_k`` reported in the summary's
-``flanges`` table) and Coulomb friction on the wheel/rail pairs (``model.wheel_friction``,
+``flanges`` table) and Coulomb friction on the wheel/rail pairs (``wheel.friction``,
 braked or free wheels)."""
 
 from pathlib import Path
@@ -83,7 +83,7 @@ def test_braked_wheels_slip_less_by_friction(shared_tmp) -> None:
     frictionless ones (measured over 0.03 s: 0.48 mm against 0.99 mm), friction dissipates
     energy and the discrete balance holds to round-off (measured 9e-13)."""
     s0, h0 = _lateral_quick(shared_tmp, [])
-    s1, h1 = _lateral_quick(shared_tmp, ["model.wheel_friction=0.3"])
+    s1, h1 = _lateral_quick(shared_tmp, ["wheel.friction=0.3"])
     assert np.max(np.abs(h0["friction_dissipated"])) == 0.0
     assert _worst_slip(s1) < 0.6 * _worst_slip(s0)
     assert h1["friction_dissipated"][-1] > 0.0
@@ -94,12 +94,18 @@ def test_braked_wheels_slip_less_by_friction(shared_tmp) -> None:
 def test_free_wheels_rub_across_only(shared_tmp) -> None:
     """Free (unbraked) wheels get the row across the rail only: friction still dissipates and
     the balance holds."""
-    s, h = _lateral_quick(shared_tmp, ["model.wheel_friction=0.3", "model.wheel_braked=false"])
+    s, h = _lateral_quick(shared_tmp, ["wheel.friction=0.3", "wheel.braked=false"])
     assert h["friction_dissipated"][-1] > 0.0
     assert s["energy_balance_error"] <= 1e-9
 
 
 def test_negative_wheel_friction_is_refused() -> None:
-    with pytest.raises(ScenarioError, match=r"model\.wheel_friction: Input should be greater") as e:
-        load_scenario(QUICK, ["model.wheel_friction=-0.1"])
+    with pytest.raises(ScenarioError, match=r"wheel\.friction: Input should be greater") as e:
+        load_scenario(QUICK, ["wheel.friction=-0.1"])
     assert "\n" not in str(e.value)
+
+
+def test_wheel_section_belongs_to_a_crane() -> None:
+    bar = Path(__file__).parent.parent / "demos" / "bar_impact.toml"
+    with pytest.raises(ScenarioError, match=r"wheel: applies to model.kind 'crane' only"):
+        load_scenario(bar, ["wheel.friction=0.3"])

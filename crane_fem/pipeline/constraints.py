@@ -18,7 +18,7 @@ from crane_fem.geometry.crane import CraneMesh
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.pipeline.models import ModelStage
 from crane_fem.preload import Preload
-from crane_fem.scenario import BlockModel, CraneModel, Scenario
+from crane_fem.scenario import BlockModel, CraneModel, Scenario, Wheel
 from crane_fem.subdomains import Subdomain, global_ids
 
 __all__ = ["FLANGE_GROUPS", "ConstraintStage", "build_constraints"]
@@ -100,16 +100,17 @@ def _pair_contacts(
     crane: CraneMesh,
     preload: Preload | None,
     mdl: CraneModel,
+    wheel: Wheel,
 ) -> ContactSet:
     """Vertical node-to-node contacts g = u_z(wheel) − u_z(rail) ≥ 0 (touching at t = 0).
 
-    With ``mdl.wheel_friction`` μ > 0 each pair also gets the tangential rows of the relative
+    With ``wheel.friction`` μ > 0 each pair also gets the tangential rows of the relative
     velocity v(wheel) − v(rail): t₁ = e_x (across the rail) and, for braked wheels only,
     t₂ = e_y (along it: a free wheel rolls, no friction along the rail). The rows sit on the
     pair's own two vertices, orthonormal, so each point's Delassus block is
     (1/m_wheel + 1/m_rail) I (the closed form of crane_fem.kernels.friction)."""
     pairs = crane.pairs
-    n_t = 2 if mdl.wheel_braked else 1
+    n_t = 2 if wheel.braked else 1
     rows, dofs, coeffs = [], [], []
     t_rows, t_dofs, t_coeffs = [], [], []
     for side, coeff in ((0, 1.0), (1, -1.0)):
@@ -137,8 +138,8 @@ def _pair_contacts(
         d = preload.displacement
         g0 = np.where(preload.closed, -(d[pairs[:, 0], 2] - d[pairs[:, 1], 2]), 0.0)
     mu = tangents = None
-    if mdl.wheel_friction > 0.0:
-        mu = np.full(n, mdl.wheel_friction)
+    if wheel.friction > 0.0:
+        mu = np.full(n, wheel.friction)
         tangents = TangentRows(
             np.repeat(np.arange(n, dtype=np.int64), n_t),
             np.concatenate(t_rows).astype(np.int64),
@@ -223,7 +224,7 @@ def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> Cons
         if E_sub is None:
             raise ScenarioError("the crane's wheel/rail contacts need an explicit subdomain")
         assert isinstance(sc.model, CraneModel)
-        contacts = _pair_contacts(comm, E_sub, mesh.crane, models.preload, sc.model)
+        contacts = _pair_contacts(comm, E_sub, mesh.crane, models.preload, sc.model, sc.wheel)
         if mesh.crane.flange_pairs.shape[0] > 0:
             flanges = _flange_contacts(comm, E_sub, mesh.crane, models.preload, sc.model.span)
             contacts = ContactSet.stack(contacts, flanges)
