@@ -243,20 +243,26 @@ def _support_reactions(sc: Scenario, sim: Simulation) -> SupportReactions | None
     return None
 
 
+def _owned_vertices(sim: Simulation) -> tuple[npt.NDArray[np.int64], FloatArray]:
+    """The global ids (the index map's) and coordinates (n, 3) of the parent mesh's owned
+    vertices (not collective)."""
+    mesh = sim.mesh.tagged.mesh
+    local = np.arange(mesh.topology.index_map(0).size_local, dtype=np.int32)
+    ids = np.asarray(mesh.topology.index_map(0).local_to_global(local), dtype=np.int64)
+    xyz = np.asarray(mesh.geometry.x)[dolfinx.mesh.entities_to_geometry(mesh, 0, local).ravel()]
+    return ids, xyz
+
+
 def _wheel_slip(sim: Simulation) -> WheelSlip | None:
     """The crane wheels' slip on their rails, with the reach of each wheel's pairs from its
     rail patch's vertices (collective; None without a crane)."""
     crane, sub = sim.mesh.crane, sim.models.explicit
     if crane is None or sub is None:
         return None
-    mesh = sim.mesh.tagged.mesh
-    n_own = mesh.topology.index_map(0).size_local
-    local = np.arange(n_own, dtype=np.int32)
-    ids = np.asarray(mesh.topology.index_map(0).local_to_global(local), dtype=np.int64)
+    ids, xyz = _owned_vertices(sim)
     rail = crane.pairs[:, 1]
     mine = np.flatnonzero(np.isin(ids, rail))
-    xyz = np.asarray(mesh.geometry.x)[dolfinx.mesh.entities_to_geometry(mesh, 0, local[mine])]
-    got = sim.mesh.comm.allgather((ids[mine], xyz.reshape(-1, 3)))
+    got = sim.mesh.comm.allgather((ids[mine], xyz[mine]))
     gid = np.concatenate([g for g, _ in got])
     pos = np.concatenate([x for _, x in got])
     where = {int(g): pos[i, :2] for i, g in enumerate(gid)}
@@ -274,11 +280,7 @@ def _point_motions(sc: Scenario, sim: Simulation) -> PointMotions | None:
     points = default_points(sc)
     if not points:
         return None
-    mesh = sim.mesh.tagged.mesh
-    n_own = mesh.topology.index_map(0).size_local
-    local = np.arange(n_own, dtype=np.int32)
-    xyz = np.asarray(mesh.geometry.x)[dolfinx.mesh.entities_to_geometry(mesh, 0, local).ravel()]
-    ids = np.asarray(mesh.topology.index_map(0).local_to_global(local), dtype=np.int64)
+    ids, xyz = _owned_vertices(sim)
     md = sim.models
     return PointMotions(
         points, md.explicit, md.implicit, xyz, ids, GroundAcceleration(sc), sim.mesh.comm
