@@ -92,8 +92,8 @@ def _parser() -> argparse.ArgumentParser:
         "suites",
         nargs="*",
         metavar="SUITE",
-        help="suites to run (default: stability pareto ensemble; also speed, reduction, "
-        "convergence, gc_stability)",
+        help="suites to run (default: stability pareto ensemble; also three_component, "
+        "speed, reduction, convergence, gc_stability)",
     )
     bench.add_argument("--quick", action="store_true", help="the quick variant (≤ 10 min)")
     bench.add_argument(

@@ -40,7 +40,7 @@ class Suite(Protocol):
 SUITES = ["stability", "pareto", "ensemble"]
 #: Every suite: the default ones, and the studies run by name (each runs its script of
 #: ``benchmarks/`` and keeps its own results there).
-ALL_SUITES = [*SUITES, "speed", "reduction", "convergence", "gc_stability"]
+ALL_SUITES = [*SUITES, "three_component", "speed", "reduction", "convergence", "gc_stability"]
 
 
 def load_suite(name: str) -> Suite:

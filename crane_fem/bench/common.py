@@ -54,8 +54,12 @@ def explicit_settings(scene: Path, scale: float = 1.0, dt: float = 1.0) -> dict[
     out: dict[str, Any] = {"coupling.method": "monolithic", "output.xdmf": False}
     if scale != 1.0:
         gm = sc.loading.ground_motion
-        assert gm is not None and not isinstance(gm, list)
-        out["loading.ground_motion.scale"] = gm.scale * scale
+        assert gm is not None
+        if isinstance(gm, list):  # components: each scaled (one record scaled as a whole)
+            for i, c in enumerate(gm):
+                out[f"loading.ground_motion.{i}.scale"] = c.scale * scale
+        else:
+            out["loading.ground_motion.scale"] = gm.scale * scale
     if dt != 1.0:
         assert sc.time.dt_factor is not None
         out["time.dt_factor"] = sc.time.dt_factor * dt

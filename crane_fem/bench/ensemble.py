@@ -31,7 +31,7 @@ from mpi4py import MPI
 from crane_fem.bench import Section
 from crane_fem.bench.common import Outcome, demo, explicit_settings, run_case, write_csv
 
-__all__ = ["NAME", "SUMMARY", "judge", "run"]
+__all__ = ["NAME", "SUMMARY", "Scene", "judge", "run", "scene_report"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -57,6 +57,9 @@ class Scene:
 
     name: str
     methods: list[tuple[str, dict[str, Any]]]
+    #: Horizontal shaking (issue 16): (b) also judges each wheel's slip along and across its
+    #: rail and its flange impacts (count and peak force).
+    sliding: bool = False
 
 
 GC: tuple[str, dict[str, Any]] = ("gc", {})
@@ -81,13 +84,23 @@ FULL = [
 ]
 
 
-def _quantities(o: Outcome) -> dict[str, float]:
-    """The engineering quantities of criterion (b) of a run."""
+def _quantities(o: Outcome, sliding: bool = False) -> dict[str, float]:
+    """The engineering quantities of criterion (b) of a run (``sliding``: with each wheel's
+    slip and flange impacts)."""
     q: dict[str, float] = {}
+    flanges = o.summary.get("flanges", {})
     for k, w in sorted(o.summary.get("wheels", {}).items()):
         q[f"wheel {k} lift-offs"] = float(w["lift_offs"]["count"])
         q[f"wheel {k} max uplift (mm)"] = 1e3 * w["max_uplift_m"]
         q[f"wheel {k} peak force (kN)"] = 1e-3 * w["peak_force_N"]
+        if sliding:
+            q[f"wheel {k} max slip across (mm)"] = 1e3 * w["max_slip_across_m"]
+            q[f"wheel {k} max slip along (mm)"] = 1e3 * w["max_slip_along_m"]
+            sides = [flanges[f"{side}_{k}"] for side in ("in", "out") if f"{side}_{k}" in flanges]
+            q[f"wheel {k} flange impacts"] = float(sum(len(f["impacts"]) for f in sides))
+            q[f"wheel {k} flange peak force (kN)"] = 1e-3 * max(
+                (f["peak_force_N"] for f in sides), default=0.0
+            )
     q["girder peak von Mises (MPa)"] = 1e-6 * float(o.summary.get("peak_bridge_von_mises_Pa", 0))
     return q
 
@@ -135,11 +148,13 @@ def _lost_band(run: Outcome, ref: Outcome, t_from: float) -> list[float]:
     ]
 
 
-def judge(method: Outcome, ref: Outcome, members: list[Outcome]) -> dict[str, dict[str, float]]:
+def judge(
+    method: Outcome, ref: Outcome, members: list[Outcome], sliding: bool = False
+) -> dict[str, dict[str, float]]:
     """Criterion (b): per quantity, the method's value, the reference's, the ensemble's
     half-range and the ratio |method − reference| / half-range (0 / 0 = 0)."""
-    qs = [_quantities(m) for m in members]
-    qm, qr = _quantities(method), _quantities(ref)
+    qs = [_quantities(m, sliding) for m in members]
+    qm, qr = _quantities(method, sliding), _quantities(ref, sliding)
     out: dict[str, dict[str, float]] = {}
     for name in qr:
         values = [q[name] for q in qs]
@@ -150,7 +165,7 @@ def judge(method: Outcome, ref: Outcome, members: list[Outcome]) -> dict[str, di
     return out
 
 
-def _scene(scene: Scene, out: Path) -> tuple[str, list[dict[str, Any]]]:
+def scene_report(scene: Scene, out: Path) -> tuple[str, list[dict[str, Any]]]:
     """Run one scene's ensemble and methods; its Markdown and CSV rows."""
     path = demo(scene.name)
     runs = out / "runs" / "ensemble" / scene.name
@@ -191,7 +206,7 @@ def _scene(scene: Scene, out: Path) -> tuple[str, list[dict[str, Any]]]:
         l2 = _pair_l2(o, ref, t2)
         worst_w = max(v[0] for v in l2.values())
         worst_r = max(v[1] for v in l2.values())
-        b = judge(o, ref, members)
+        b = judge(o, ref, members, scene.sliding)
         worst_q = max(b, key=lambda n: b[n]["ratio"])
         s = o.summary
         w_ext = float(np.max(np.abs(o.history["external_work"])))
@@ -223,8 +238,10 @@ def _scene(scene: Scene, out: Path) -> tuple[str, list[dict[str, Any]]]:
         )
         rows.append(row)
     # The quantities themselves: the ensemble's range and each method's value.
-    qs = {m.label: _quantities(m) for m in members}
-    qm = {o.label: _quantities(o) for o in candidates[len(members) - 1 :] if o.stable}
+    qs = {m.label: _quantities(m, scene.sliding) for m in members}
+    qm = {
+        o.label: _quantities(o, scene.sliding) for o in candidates[len(members) - 1 :] if o.stable
+    }
     names = list(qs[ref.label])
     lines += [
         "",
@@ -247,7 +264,7 @@ def run(out: Path, quick: bool) -> list[Section]:
     t0 = time.perf_counter()
     parts, rows = [], []
     for scene in QUICK if quick else FULL:
-        md, r = _scene(scene, out)
+        md, r = scene_report(scene, out)
         parts.append(md)
         rows += r
     files: list[Path] = []

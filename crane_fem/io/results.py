@@ -30,6 +30,16 @@ def results_rows(summary: dict[str, Any]) -> list[dict[str, Any]]:
         for k, imp in enumerate(w.get("impacts", []), start=1):
             add(f"impact_{k}_impulse", where, imp["impulse_Ns"], "N s", imp["t_s"])
             add(f"impact_{k}_peak_force", where, imp["peak_force_N"], "N", imp["t_s"])
+        if "max_slip_across_m" in w:
+            add("max_slip_across", where, w["max_slip_across_m"], "m", w["max_slip_across_time_s"])
+            add("max_slip_along", where, w["max_slip_along_m"], "m", w["max_slip_along_time_s"])
+    for name, f in summary.get("flanges", {}).items():
+        where = f"flange {name}"
+        add("peak_contact_force", where, f["peak_force_N"], "N", f["peak_force_time_s"])
+        add("impacts", where, len(f.get("impacts", [])), "count")
+        for k, imp in enumerate(f.get("impacts", []), start=1):
+            add(f"impact_{k}_impulse", where, imp["impulse_Ns"], "N s", imp["t_s"])
+            add(f"impact_{k}_peak_force", where, imp["peak_force_N"], "N", imp["t_s"])
     if "peak_bridge_von_mises_Pa" in summary:
         add(
             "peak_von_mises",
@@ -74,6 +84,7 @@ def results_lines(summary: dict[str, Any]) -> list[str]:
                 f"{w['max_uplift_m'] * 1e3:11.3f}  {w['lift_offs']['count']:9d}  "
                 f"{len(imps):7d}  {big:21.4g}"
             )
+    lines += _sliding_lines(summary)
     if "peak_bridge_von_mises_Pa" in summary:
         loc = summary.get("peak_bridge_von_mises_location_m")
         at = f" at ({', '.join(f'{x:.3f}' for x in loc)}) m" if loc else ""
@@ -85,5 +96,28 @@ def results_lines(summary: dict[str, Any]) -> list[str]:
         lines.append(
             f"support {name}: peak force {s['peak_force_N'] / 1e3:.3f} kN at "
             f"t = {s['peak_force_time_s']:.5f} s (vertical {s['peak_vertical_N'] / 1e3:.3f} kN)"
+        )
+    return lines
+
+
+def _sliding_lines(summary: dict[str, Any]) -> list[str]:
+    """Per wheel: its largest slip across and along its rail (against the reach of its
+    contact pairs) and its flanges' impacts (both sides), when the run has them."""
+    wheels = summary.get("wheels", {})
+    if not any("max_slip_across_m" in w for w in wheels.values()):
+        return []
+    flanges = summary.get("flanges", {})
+    lines = [
+        "   wheel  slip across (mm)  slip along (mm)  reach (mm)  flange impacts  "
+        "flange peak force (kN)"
+    ]
+    for name, w in wheels.items():
+        sides = [flanges[f"{side}_{name}"] for side in ("in", "out") if f"{side}_{name}" in flanges]
+        n_imp = sum(len(f.get("impacts", [])) for f in sides)
+        peak = max((f["peak_force_N"] for f in sides), default=0.0)
+        flange = f"{n_imp:14d}  {peak / 1e3:22.3f}" if sides else f"{'no flanges':>14}"
+        lines.append(
+            f"{name:>8}  {w['max_slip_across_m'] * 1e3:16.3f}  {w['max_slip_along_m'] * 1e3:15.3f}"
+            f"  {w['slip_reach_m'] * 1e3:10.2f}  {flange}"
         )
     return lines
