@@ -557,6 +557,13 @@ class Scenario(_Section):
                     f"contact[{i}].type: {c.type!r} does not apply to model.kind {mdl.kind!r} "
                     f"(a block takes type 'plane', a bar 'wall' or 'bars')"
                 )
+        if mdl.kind in ("crane", "box_beam") and self.initial.model_fields_set:
+            key = sorted(self.initial.model_fields_set)[0]
+            raise ValueError(
+                f"initial.{key}: model.kind {mdl.kind!r} starts at rest"
+                + (" in its static preload (with gravity)" if mdl.kind == "crane" else "")
+                + "; initial.* applies to a 'bar' or a 'block'"
+            )
         vec = isinstance(self.initial.velocity, list)
         if vec and not block:
             raise ValueError(

@@ -5,6 +5,7 @@ from pathlib import Path
 import pytest
 
 from crane_fem.cli import main
+from crane_fem.errors import ScenarioError
 from crane_fem.scenario import load_scenario
 
 GOOD = """
@@ -136,3 +137,20 @@ def test_set_overrides_are_toml_values(tmp_path, capsys) -> None:
     assert main(["check", str(path), "--set", "model.elements=abc"]) == 2
     assert main(["check", str(path), "--set", "model.elements.x=1"]) == 2
     assert "model.elements is not a table" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("scene", "override", "fragment"),
+    [
+        ("crane_quick.toml", "initial.velocity=1.0", "initial.velocity: model.kind 'crane' starts"),
+        ("crane_quick.toml", "initial.displacement=[0.0, 1e-3]", "initial.displacement: model"),
+        ("box_beam.toml", "initial.velocity=1.0", "initial.velocity: model.kind 'box_beam' starts"),
+    ],
+)
+def test_initial_state_of_a_crane_or_box_beam_is_refused(scene, override, fragment) -> None:
+    """A crane starts at rest in its static preload, a box beam at rest: initial.* (a bar's
+    or a block's) is refused with one line, not ignored."""
+    demos = Path(__file__).parent.parent / "demos"
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(demos / scene, [override])
+    assert fragment in str(err.value) and "\n" not in str(err.value), str(err.value)
