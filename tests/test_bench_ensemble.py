@@ -62,3 +62,33 @@ def test_ensemble_members_keep_the_stress_times() -> None:
     up = explicit_settings(demo("crane"), 1.005, 1.0)
     assert up["loading.ground_motion.scale"] == pytest.approx(8.0 * 1.005)
     assert "time.dt_factor" not in up
+
+
+def test_sliding_scene_judges_slip_and_flange_impacts() -> None:
+    """On a sliding scene (bench three_component) (b) also judges each wheel's slip across
+    and along and its flanges' impacts (both sides counted, the larger peak); the default
+    scenes' quantities stay as they were."""
+
+    def run(across: float, impacts: int, peak: float) -> Outcome:
+        o = _run(100e3, 3, 20e6, [0.05])
+        o.summary["wheels"]["1"] |= {"max_slip_across_m": across, "max_slip_along_m": 0.01}
+        flange = {"impacts": [{"t_s": 0.1}] * impacts, "peak_force_N": peak}
+        o.summary["flanges"] = {"in_1": flange, "out_1": {"impacts": [], "peak_force_N": 0.0}}
+        return o
+
+    members = [run(5.00e-3, 2, 20e3), run(5.02e-3, 3, 30e3), run(5.01e-3, 2, 25e3)]
+    b = judge(run(5.03e-3, 2, 12e3), members[0], members, sliding=True)
+    assert b["wheel 1 max slip across (mm)"]["ratio"] == pytest.approx(3.0)
+    assert b["wheel 1 max slip along (mm)"]["ratio"] == 0.0
+    assert b["wheel 1 flange impacts"]["half_range"] == pytest.approx(0.5)
+    assert b["wheel 1 flange impacts"]["ratio"] == 0.0
+    assert b["wheel 1 flange peak force (kN)"]["ratio"] == pytest.approx(8.0 / 5.0)
+    assert "wheel 1 flange impacts" not in judge(members[1], members[0], members)
+
+
+def test_explicit_member_scales_every_component() -> None:
+    """The ensemble's record × 1.005 scales each of a three-component scene's records."""
+    s = explicit_settings(demo("crane_3c"), 1.005)
+    scales = [s[f"loading.ground_motion.{i}.scale"] for i in range(3)]
+    assert scales == pytest.approx([2.5 * 1.005, 2.5 * 1.005, 8.0 * 1.005], rel=1e-15)
+    assert s["coupling.method"] == "monolithic"

@@ -31,7 +31,7 @@ from mpi4py import MPI
 from crane_fem.bench import Section
 from crane_fem.bench.common import Outcome, demo, explicit_settings, run_case, write_csv
 
-__all__ = ["NAME", "SUMMARY", "Scene", "judge", "run", "scene_report"]
+__all__ = ["NAME", "SUMMARY", "Scene", "judge", "report_scenes", "run", "scene_report"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -258,26 +258,32 @@ def scene_report(scene: Scene, out: Path) -> tuple[str, list[dict[str, Any]]]:
     return "\n".join(lines), rows
 
 
-def run(out: Path, quick: bool) -> list[Section]:
-    """Run the ensembles and methods of the quick scene (``quick``) or of the default and
-    stress-grade scenes (collective; files written on rank 0)."""
+def report_scenes(scenes: list[Scene], out: Path, csv_name: str) -> tuple[str, list[Path], float]:
+    """Run ``scenes`` (:func:`scene_report`) and write their rows to ``out/csv_name`` (rank
+    0): their Markdown, the files written and the minutes taken (collective)."""
     t0 = time.perf_counter()
     parts, rows = [], []
-    for scene in QUICK if quick else FULL:
+    for scene in scenes:
         md, r = scene_report(scene, out)
         parts.append(md)
         rows += r
     files: list[Path] = []
     if MPI.COMM_WORLD.rank == 0:
-        files.append(write_csv(out / "ensemble.csv", rows))
-    minutes = (time.perf_counter() - t0) / 60
+        files.append(write_csv(out / csv_name, rows))
+    return "\n\n".join(parts), files, (time.perf_counter() - t0) / 60
+
+
+def run(out: Path, quick: bool) -> list[Section]:
+    """Run the ensembles and methods of the quick scene (``quick``) or of the default and
+    stress-grade scenes (collective; files written on rank 0)."""
+    md, files, minutes = report_scenes(QUICK if quick else FULL, out, "ensemble.csv")
     body = (
         "The crane judged against its own conditioning (issue 15): criteria (a), (b), (c) of "
         "each method against an ensemble of fully explicit runs (the reference, record × "
         "0.995, record × 1.005, Δt × ½). (b)'s ratio is |method − reference| / the "
         "ensemble's half-range; the girder stress is evaluated at every macro step of "
         "the scene's ratio m (output.stress_every), the same physical times in every run. "
-        f"{'Quick' if quick else 'Full'} suite: {minutes:.1f} min.\n\n" + "\n\n".join(parts)
+        f"{'Quick' if quick else 'Full'} suite: {minutes:.1f} min.\n\n" + md
     )
     key = "ensemble-quick" if quick else "ensemble-full"
     title = f"The crane ensemble{' (quick)' if quick else ''}: criteria (a), (b), (c)"

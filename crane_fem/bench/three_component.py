@@ -4,14 +4,10 @@ along and across its rail and its flange impacts (:mod:`crane_fem.bench.ensemble
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
-from mpi4py import MPI
-
 from crane_fem.bench import Section
-from crane_fem.bench.common import write_csv
-from crane_fem.bench.ensemble import GC, REDUCED, Scene, scene_report
+from crane_fem.bench.ensemble import GC, REDUCED, Scene, report_scenes
 
 __all__ = ["NAME", "SCENE", "SUMMARY", "run"]
 
@@ -29,12 +25,7 @@ def run(out: Path, quick: bool) -> list[Section]:
     """Run the scene's ensemble and methods (``quick`` changes nothing: one scene, a few
     minutes; collective, files written on rank 0)."""
     del quick
-    t0 = time.perf_counter()
-    md, rows = scene_report(SCENE, out)
-    files: list[Path] = []
-    if MPI.COMM_WORLD.rank == 0:
-        files.append(write_csv(out / "three_component.csv", rows))
-    minutes = (time.perf_counter() - t0) / 60
+    md, files, minutes = report_scenes([SCENE], out, "three_component.csv")
     body = (
         "The three-component crane scene (issue 16) against an ensemble of fully explicit "
         "runs (the reference, the three components × 0.995 and × 1.005, Δt × ½), by criteria "
