@@ -1,0 +1,76 @@
+"""Scenario files: TOML -> validated configuration, with one-line errors naming the key.
+
+The format is documented in ``docs/scenarios.md``. Every rank reads and validates the same
+file, so a bad scenario raises the same :class:`~crane_fem.errors.ScenarioError` on every rank
+before any collective call is made.
+"""
+
+from crane_fem.scenario.coupling import (
+    COUPLED_METHODS,
+    HYBRID_KEYS,
+    OPERATOR_KEYS,
+    SOLVED_INTERFACE_METHODS,
+    Coupling,
+    NewmarkParams,
+    SubdomainSpec,
+)
+from crane_fem.scenario.load import load_scenario, parse_scenario
+from crane_fem.scenario.loading import GroundMotion, Loading, TipTraction
+from crane_fem.scenario.model import (
+    MODEL_KINDS,
+    BarModel,
+    BlockModel,
+    BoxBeamModel,
+    CraneModel,
+    SecondBar,
+)
+from crane_fem.scenario.overrides import apply_overrides, apply_unsets
+from crane_fem.scenario.root import Scenario
+from crane_fem.scenario.sections import (
+    Contact,
+    DampingRatio,
+    Initial,
+    Integrator,
+    Material,
+    Monitor,
+    Output,
+    Pulse,
+    Spectra,
+    Time,
+    Wheel,
+)
+
+__all__ = [
+    "COUPLED_METHODS",
+    "HYBRID_KEYS",
+    "MODEL_KINDS",
+    "OPERATOR_KEYS",
+    "SOLVED_INTERFACE_METHODS",
+    "BarModel",
+    "BlockModel",
+    "BoxBeamModel",
+    "Contact",
+    "Coupling",
+    "CraneModel",
+    "DampingRatio",
+    "GroundMotion",
+    "Initial",
+    "Integrator",
+    "Loading",
+    "Material",
+    "Monitor",
+    "NewmarkParams",
+    "Output",
+    "Pulse",
+    "Scenario",
+    "SecondBar",
+    "Spectra",
+    "SubdomainSpec",
+    "Time",
+    "TipTraction",
+    "Wheel",
+    "apply_overrides",
+    "apply_unsets",
+    "load_scenario",
+    "parse_scenario",
+]

@@ -1,0 +1,267 @@
+"""A whole scenario file: its sections, and the checks that look across them."""
+
+# Pydantic copies a field's default into each instance; ruff cannot see across modules that
+# Section is a pydantic model.
+# ruff: noqa: RUF012
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from pydantic import Field, model_validator
+
+from crane_fem.errors import ScenarioError
+from crane_fem.scenario.base import Section
+from crane_fem.scenario.coupling import (
+    HYBRID_KEYS,
+    OPERATOR_KEYS,
+    SOLVED_INTERFACE_METHODS,
+    Coupling,
+    NewmarkParams,
+    SubdomainSpec,
+)
+from crane_fem.scenario.loading import Loading
+from crane_fem.scenario.model import BarModel, BlockModel, BoxBeamModel, CraneModel
+from crane_fem.scenario.sections import (
+    Contact,
+    Initial,
+    Integrator,
+    Material,
+    Monitor,
+    Output,
+    Spectra,
+    Time,
+    Wheel,
+)
+
+__all__ = ["Scenario"]
+
+
+class Scenario(Section):
+    """A whole scenario file."""
+
+    name: str = "scenario"
+    model: Annotated[BarModel | BoxBeamModel | CraneModel | BlockModel, Field(discriminator="kind")]
+    material: Material
+    initial: Initial = Initial()
+    contact: list[Contact] = []
+    time: Time
+    integrator: Integrator = Integrator()
+    loading: Loading = Loading()
+    output: Output = Output()
+    spectra: Spectra = Spectra()
+    wheel: Wheel = Wheel()
+    monitor: Monitor = Monitor()
+    subdomain: list[SubdomainSpec] = []
+    coupling: Coupling | None = None
+    newmark: NewmarkParams = NewmarkParams()
+
+    @property
+    def coupled_path(self) -> bool:
+        """Run through subdomains (coupled or monolithic reference) rather than the bar path
+        (a block always: one CD-Lagrange subdomain built by the pipeline)."""
+        return (
+            bool(self.subdomain) or self.coupling is not None or isinstance(self.model, BlockModel)
+        )
+
+    @model_validator(mode="after")
+    def _contacts_and_block(self) -> Scenario:
+        mdl = self.model
+        block = isinstance(mdl, BlockModel)
+        for i, c in enumerate(self.contact):
+            if c.friction > 0.0 and c.type != "plane":
+                raise ValueError(
+                    f"contact[{i}].friction: a {c.type!r} contact (at a 1D bar's end) has no "
+                    "tangent plane; friction needs a contact of type 'plane' (model.kind "
+                    "'block')"
+                )
+            if (c.type == "plane") != block:
+                raise ValueError(
+                    f"contact[{i}].type: {c.type!r} does not apply to model.kind {mdl.kind!r} "
+                    f"(a block takes type 'plane', a bar 'wall' or 'bars')"
+                )
+        if mdl.kind in ("crane", "box_beam") and self.initial.model_fields_set:
+            key = sorted(self.initial.model_fields_set)[0]
+            raise ValueError(
+                f"initial.{key}: model.kind {mdl.kind!r} starts at rest"
+                + (" in its static preload (with gravity)" if mdl.kind == "crane" else "")
+                + "; initial.* applies to a 'bar' or a 'block'"
+            )
+        vec = isinstance(self.initial.velocity, list)
+        if vec and not block:
+            raise ValueError(
+                f"initial.velocity: model.kind {mdl.kind!r} takes a number (the bar's axial "
+                f"velocity), not a vector (got {self.initial.velocity})"
+            )
+        if not block:
+            return self
+        if not vec and self.initial.velocity != 0.0:
+            raise ValueError(
+                "initial.velocity: model.kind 'block' takes a vector [vx, vy, vz] (m/s), not a "
+                f"number (got {self.initial.velocity})"
+            )
+        if len(self.contact) > 1:
+            raise ValueError("contact: a block takes at most one contact (type 'plane')")
+        if self.initial.displacement != [0.0, 0.0] or self.initial.pulse is not None:
+            raise ValueError(
+                "initial: model.kind 'block' starts undeformed (displacement and pulse are a "
+                "bar's); give its initial.velocity only"
+            )
+        if self.subdomain:
+            raise ValueError(
+                "subdomain: model.kind 'block' is one explicit CD-Lagrange body; it takes no "
+                "[[subdomain]] entries"
+            )
+        cpl = self.coupling
+        explicit = cpl is None or (
+            cpl.method == "monolithic" and cpl.monolithic_scheme == "cd-lagrange"
+        )
+        if not explicit:
+            raise ValueError(
+                "coupling: model.kind 'block' runs fully explicit (method 'monolithic', scheme "
+                "'cd-lagrange'); leave [coupling] out"
+            )
+        if self.integrator.scheme != "cd-lagrange":
+            raise ValueError(
+                f"integrator.scheme: model.kind 'block' runs with 'cd-lagrange', not "
+                f"{self.integrator.scheme!r}"
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _subdomains(self) -> Scenario:
+        mdl = self.model
+        if isinstance(mdl, BoxBeamModel | CraneModel):
+            if not self.coupled_path:
+                raise ValueError(
+                    f"model.kind {mdl.kind!r} needs [[subdomain]] entries or "
+                    "[coupling] method = 'monolithic'"
+                )
+            if self.contact:
+                raise ValueError(
+                    f"contact: not available on model.kind {mdl.kind!r} (the "
+                    "crane's wheel/rail contacts come with its geometry)"
+                )
+            if isinstance(mdl, CraneModel) and self.coupling and self.coupling.method == "ph":
+                # Its explicit side must be linear over each macro step; the crane's wheels
+                # rest on their rails (active contacts) from t = 0.
+                raise ValueError(
+                    "coupling.method: 'ph' needs contact-free explicit subdomains, but the "
+                    "crane's wheels rest on their rails from t = 0; use 'gc' (or 'gc-mean')"
+                )
+        if isinstance(mdl, CraneModel):
+            try:
+                mdl.geometry().validate()
+            except ScenarioError as exc:  # name the scenario key, not the dataclass field
+                raise ValueError(str(exc).replace("geometry.", "model.")) from None
+        if self.loading.tip_traction is not None and not isinstance(mdl, BoxBeamModel):
+            raise ValueError("loading.tip_traction applies to model.kind 'box_beam' only")
+        cpl = self.coupling
+        if cpl is not None and cpl.method == "monolithic":
+            if cpl.scheme == "newmark" and (self.contact or isinstance(mdl, CraneModel)):
+                raise ValueError(
+                    "contact needs an explicit subdomain: coupling.scheme = "
+                    "'newmark' cannot carry [[contact]]"
+                )
+            return self
+        if cpl is not None and cpl.scheme is not None:
+            raise ValueError("coupling.scheme applies to method 'monolithic' only")
+        if cpl is not None and cpl.method not in SOLVED_INTERFACE_METHODS:
+            for key in OPERATOR_KEYS:
+                if getattr(cpl, key) is not None:
+                    raise ValueError(
+                        f"coupling.{key} applies to methods "
+                        f"{', '.join(SOLVED_INTERFACE_METHODS)} only (they solve the interface "
+                        "every micro step)"
+                    )
+        if cpl is not None and cpl.method != "hybrid":
+            for key in HYBRID_KEYS:
+                if getattr(cpl, key) is not None:
+                    raise ValueError(f"coupling.{key} applies to method 'hybrid' only")
+        if cpl is not None and cpl.impact_ratio is not None:
+            if cpl.ratio % cpl.impact_ratio:
+                raise ValueError(
+                    f"coupling.impact_ratio = {cpl.impact_ratio} must divide coupling.ratio = "
+                    f"{cpl.ratio}"
+                )
+        if (
+            cpl is not None
+            and cpl.method in ("ec", "hybrid", "gc-mean")
+            and (
+                self.newmark.beta,
+                self.newmark.gamma,
+            )
+            != (0.25, 0.5)
+        ):
+            raise ValueError(
+                f"coupling.method {cpl.method!r} needs the average-acceleration Newmark "
+                "(newmark.beta = 0.25, newmark.gamma = 0.5)"
+            )
+        if not self.subdomain:
+            if cpl is not None:
+                raise ValueError(f"coupling method {cpl.method!r} needs [[subdomain]] entries")
+            return self
+        allowed = mdl.groups
+        if not allowed:
+            raise ValueError("subdomain: model.split is required to name the bar's groups")
+        seen: list[str] = []
+        for i, sd in enumerate(self.subdomain):
+            for g in sd.groups:
+                if g not in allowed:
+                    raise ValueError(
+                        f"subdomain[{i}].groups: unknown group {g!r}; allowed: "
+                        + ", ".join(allowed)
+                    )
+                if g in seen:
+                    raise ValueError(f"subdomain[{i}].groups: group {g!r} is in two subdomains")
+                seen.append(g)
+        missing = sorted(set(allowed) - set(seen))
+        if missing:
+            raise ValueError(f"subdomain: groups {missing} belong to no subdomain")
+        implicit = [sd for sd in self.subdomain if sd.implicit]
+        if len(implicit) > 1 and cpl is None:
+            raise ValueError("two implicit (newmark) subdomains without a [coupling]")
+        if len(implicit) > 1:
+            raise ValueError("at most one newmark subdomain is supported")
+        explicit = [sd for sd in self.subdomain if sd.scheme == "cd-lagrange"]
+        if implicit and explicit and cpl is None:
+            raise ValueError("explicit and implicit subdomains need a [coupling] section")
+        if self.integrator.scheme != "cd-lagrange":
+            raise ValueError(
+                "integrator.scheme: with [[subdomain]] the scheme is given per subdomain"
+            )
+        return self
+
+    @model_validator(mode="after")
+    def _wheels_of_a_crane(self) -> Scenario:
+        if self.wheel != Wheel() and not isinstance(self.model, CraneModel):
+            raise ValueError("wheel: applies to model.kind 'crane' only (its wheel/rail pairs)")
+        return self
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Scenario:
+        if self.output.checkpoint_every is not None and not self.coupled_path:
+            raise ValueError(
+                "output.checkpoint_every: checkpoints are written by scenes with [[subdomain]] "
+                "or [coupling] only"
+            )
+        if not isinstance(self.model, BarModel):
+            return self
+        types = [c.type for c in self.contact]
+        for t in ("wall", "bars"):
+            if types.count(t) > 1:
+                raise ValueError(f"contact: at most one contact of type {t!r}")
+        labels = [c.label for c in self.contact]
+        if len(set(labels)) != len(labels):
+            raise ValueError(f"contact: names must be unique, got {labels}")
+        if ("bars" in types) != (self.model.second_bar is not None):
+            raise ValueError(
+                "contact type 'bars' and [model.second_bar] go together (one needs the other)"
+            )
+        if self.model.clamp == "right" and self.initial.displacement[1] != 0.0:
+            raise ValueError("initial.displacement: the clamped right end must start at 0")
+        if self.model.clamp == "right" and self.model.second_bar is not None:
+            raise ValueError("model.clamp = 'right' cannot be combined with a second bar")
+        if self.time.dt is not None and self.time.dt > self.time.end:
+            raise ValueError(f"time.dt = {self.time.dt} exceeds time.end = {self.time.end}")
+        return self

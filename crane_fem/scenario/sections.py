@@ -1,0 +1,217 @@
+"""The flat sections: [material], [initial], [[contact]], [wheel], [time], [integrator],
+[output], [spectra], [monitor]."""
+
+# Pydantic copies a field's default into each instance; ruff cannot see across modules that
+# Section is a pydantic model.
+# ruff: noqa: RUF012
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field, model_validator
+
+from crane_fem.scenario.base import (
+    NonNegativeFloat,
+    NonNegativePair,
+    Pair,
+    PositiveFloat,
+    PositiveInt,
+    Section,
+    Vector3,
+)
+
+__all__ = [
+    "Contact",
+    "DampingRatio",
+    "Initial",
+    "Integrator",
+    "Material",
+    "Monitor",
+    "Output",
+    "Pulse",
+    "Spectra",
+    "Time",
+    "Wheel",
+]
+
+
+class DampingRatio(Section):
+    """Rayleigh damping giving the ratio ``ratio`` at the frequencies f1 < f2 (Hz)."""
+
+    ratio: Annotated[float, Field(ge=0.0, lt=1.0)]
+    f1: PositiveFloat
+    f2: PositiveFloat
+
+    @model_validator(mode="after")
+    def _order(self) -> DampingRatio:
+        if not self.f1 < self.f2:
+            raise ValueError(f"f1 = {self.f1} must be < f2 = {self.f2}")
+        return self
+
+
+class Material(Section):
+    """Linear elastic material; Rayleigh damping C = alpha M + beta K, given as ``rayleigh``
+    = [alpha, beta] or as a ``damping`` ratio at two frequencies."""
+
+    E: PositiveFloat
+    rho: PositiveFloat
+    nu: Annotated[float, Field(ge=0.0, lt=0.5)] = 0.3
+    rayleigh: NonNegativePair = [0.0, 0.0]
+    damping: DampingRatio | None = None
+
+    @model_validator(mode="after")
+    def _one_damping(self) -> Material:
+        if self.damping is not None and any(self.rayleigh):
+            raise ValueError("give either rayleigh or damping, not both")
+        return self
+
+    @property
+    def rayleigh_coefficients(self) -> tuple[float, float]:
+        """(alpha, beta) of C = alpha M + beta K."""
+        if self.damping is None:
+            return float(self.rayleigh[0]), float(self.rayleigh[1])
+        from crane_fem.loading import rayleigh_from_damping
+
+        d = self.damping
+        return rayleigh_from_damping(d.ratio, d.f1, d.f2)
+
+
+class Pulse(Section):
+    """Right-travelling cos² displacement pulse u = a cos²(π (X − center)/width), v = −c u'."""
+
+    center: float
+    width: PositiveFloat
+    amplitude: float
+
+
+class Initial(Section):
+    """Initial state of the first bar: uniform velocity, linear displacement [left, right],
+    optionally a travelling pulse on top; of a block: its uniform velocity [vx, vy, vz]."""
+
+    velocity: float | Vector3 = 0.0
+    displacement: Pair = [0.0, 0.0]
+    pulse: Pulse | None = None
+
+    @property
+    def bar_velocity(self) -> float:
+        """The bar's uniform velocity (a scenario with a vector velocity is refused for a
+        bar, so this is a number there)."""
+        v = self.velocity
+        return float(v) if not isinstance(v, list) else float(v[0])
+
+    @property
+    def velocity_vector(self) -> list[float]:
+        """The uniform velocity as [vx, vy, vz] (a number: [v, 0, 0])."""
+        v = self.velocity
+        return [float(x) for x in v] if isinstance(v, list) else [float(v), 0.0, 0.0]
+
+
+class Contact(Section):
+    """A unilateral contact, frictionless unless ``friction`` (Coulomb's μ ≥ 0) is given.
+
+    ``wall``: rigid plane x = 0 facing +x, the first bar's left end at x = gap.
+    ``bars``: node-to-node between the first bar's right end and the second bar's left end,
+    ``gap`` apart.
+    ``plane``: the rigid plane z = 0 facing +z under a block (model.kind 'block') whose bottom
+    face is at z = gap: every vertex of that face is a contact point, normal e_z, tangents
+    e_x and e_y (the only type with a tangent plane, so the only one that takes friction).
+    """
+
+    type: Literal["wall", "bars", "plane"]
+    gap: NonNegativeFloat
+    name: str | None = None
+    friction: NonNegativeFloat = 0.0
+
+    @property
+    def label(self) -> str:
+        return self.name if self.name is not None else self.type
+
+
+class Wheel(Section):
+    """The crane's wheels on their rails: ``friction`` is the Coulomb coefficient μ ≥ 0 of the
+    wheel/rail pairs (0: frictionless, as before); ``braked`` (default true: a crane parked
+    for an earthquake has its brakes set, the usual qualification assumption) makes the
+    wheels stick by friction both across (x) and along (y) the rail, else they roll freely
+    along it (friction across only)."""
+
+    friction: NonNegativeFloat = 0.0
+    braked: bool = True
+
+
+class Time(Section):
+    """End time and step: ``dt`` in seconds or ``dt_factor`` times the critical explicit step."""
+
+    end: PositiveFloat
+    dt: PositiveFloat | None = None
+    dt_factor: PositiveFloat | None = None
+
+    @model_validator(mode="after")
+    def _one_step_spec(self) -> Time:
+        if (self.dt is None) == (self.dt_factor is None):
+            raise ValueError("give exactly one of time.dt (seconds) or time.dt_factor")
+        return self
+
+
+class Integrator(Section):
+    """Time integrator and its parameters."""
+
+    scheme: Literal["cd-lagrange", "moreau-jean", "penalty"] = "cd-lagrange"
+    theta: Annotated[float, Field(ge=0.5, le=1.0)] | None = None
+    penalty: PositiveFloat | None = None
+
+    @model_validator(mode="after")
+    def _parameters_apply(self) -> Integrator:
+        if self.theta is not None and self.scheme != "moreau-jean":
+            raise ValueError(f"integrator.theta applies to 'moreau-jean' only, not {self.scheme!r}")
+        if self.scheme == "penalty" and self.penalty is None:
+            raise ValueError("integrator.penalty (contact stiffness, N/m) is required by 'penalty'")
+        if self.penalty is not None and self.scheme != "penalty":
+            raise ValueError(f"integrator.penalty applies to 'penalty' only, not {self.scheme!r}")
+        return self
+
+    @property
+    def theta_value(self) -> float:
+        return 0.5 if self.theta is None else self.theta
+
+
+class Output(Section):
+    """What is written and how often."""
+
+    every: PositiveInt = 1
+    xdmf: bool = True
+    xdmf_every: PositiveInt | None = None
+    #: Crane: the bridge's peak von Mises stress is evaluated every this many macro steps.
+    stress_every: PositiveInt = 1
+    progress: bool | Literal["auto"] = "auto"
+    #: Write the full state every this many macro steps (``crane-fem run --restart OUTDIR``
+    #: continues from the latest one); scenes with subdomains only.
+    checkpoint_every: PositiveInt | None = None
+
+
+class Spectra(Section):
+    """Pseudo-acceleration response spectra of the input motion and of the absolute motion at
+    named ``points`` (coordinates in metres, the nearest mesh vertex is used; a crane gets its
+    trolley centre, wheel 1 and an end-carriage support when none is given): ``damping`` is
+    the oscillators' damping ratio, ``periods`` the range [T_min, T_max] (s) sampled at
+    ``count`` log-spaced periods."""
+
+    damping: Annotated[float, Field(gt=0, lt=1)] = 0.05
+    periods: Annotated[list[PositiveFloat], Field(min_length=2, max_length=2)] = [0.01, 2.0]
+    count: Annotated[int, Field(ge=2)] = 100
+    points: dict[str, Vector3] = {}
+
+    @model_validator(mode="after")
+    def _range(self) -> Spectra:
+        if not self.periods[0] < self.periods[1]:
+            raise ValueError(
+                f"periods must be [T_min, T_max] with T_min < T_max (got {self.periods})"
+            )
+        return self
+
+
+class Monitor(Section):
+    """Divergence detection: stop when the kinetic energy exceeds ``energy_growth`` times the
+    energy supplied (initial energy + |external work|)."""
+
+    energy_growth: Annotated[float, Field(gt=1)] = 10.0
