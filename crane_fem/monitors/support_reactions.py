@@ -1,0 +1,67 @@
+"""The reactions of a crane's clamped faces as a macro-step monitor."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from mpi4py import MPI
+
+from crane_fem.coupling import MacroRecord
+from crane_fem.pipeline import Simulation
+from crane_fem.points import GroundAcceleration
+from crane_fem.reactions import SupportReactions
+
+__all__ = ["SupportsMonitor", "create_supports"]
+
+
+class SupportsMonitor:
+    """:class:`SupportReactions` on the fields of the side that holds the clamped faces,
+    every ``output.stress_every`` macro steps (collective). Owns the reactions' PETSc
+    matrices: :meth:`destroy` them."""
+
+    def __init__(self, sim: Simulation, reactions: SupportReactions) -> None:
+        md = sim.models
+        self.reactions = reactions
+        self.on_implicit = md.implicit is not None and reactions.subdomain == md.implicit.name
+        self.every = sim.scenario.output.stress_every
+        self.ground = GroundAcceleration(sim.scenario)
+
+    def update(self, rec: MacroRecord, last: bool) -> None:
+        # The side's whole field (a reduced side expands it): sampled, not every step.
+        if rec.step % self.every != 0:
+            return
+        u = rec.implicit_u if self.on_implicit else rec.explicit_u
+        v = rec.implicit_v if self.on_implicit else rec.explicit_v
+        assert u is not None and v is not None
+        self.reactions.update(rec.t, u, v, self.ground(rec.t))
+
+    def summarize(self, summary: dict[str, Any]) -> None:
+        summary["supports"] = self.reactions.table()
+
+    def state_dict(self) -> dict[str, Any]:
+        return self.reactions.state_dict()
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.reactions.load_state_dict(state)
+
+    def destroy(self) -> None:
+        self.reactions.destroy()
+
+
+def create_supports(sim: Simulation) -> SupportsMonitor | None:
+    """The reactions of the clamped faces, on the side that holds them (collective; None
+    without clamped DOFs)."""
+    md, sc = sim.models, sim.scenario
+    for sub in (md.implicit, md.explicit):
+        if sub is None or sub.bs != 3:
+            continue
+        if sim.mesh.comm.allreduce(int(np.count_nonzero(sub.model.fixed)), op=MPI.SUM):
+            mat = sc.material
+            return SupportsMonitor(
+                sim,
+                SupportReactions(
+                    sub, mat.E, mat.nu, mat.rho, mat.rayleigh_coefficients, sc.loading.gravity
+                ),
+            )
+    return None
