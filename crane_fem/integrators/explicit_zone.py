@@ -508,12 +508,8 @@ class ExplicitZone:
     def local_energies(self) -> list[float]:
         """Local shadow kinetic and internal energy after the last micro step (THEORY.md §3:
         ½ V_{j+1/2}ᵀ M V_{j+1/2}, ½ U_{j+1}ᵀ K U_j = ½ U_jᵀ K U_j + ½ Δt V_{j+1/2}ᵀ K U_j)."""
-        m = self.model
-        vh, u, ku = self.vh, self.u, self.ku
-        return [
-            0.5 * float(np.dot(vh, m.mass * vh)),
-            0.5 * float(np.dot(u, ku)) + 0.5 * self.dt * float(np.dot(vh, ku)),
-        ]
+        kin, internal = kx.shadow_energies(self.vh, self.model.mass, self.u, self.ku, self.dt)
+        return [kin, internal]
 
     def destroy(self) -> None:
         """Free the duplicated communicator (collective)."""
