@@ -12,6 +12,9 @@ __all__ = [
     "BLOCK",
     "BLOCK_BOTTOM",
     "BLOCK_TOP",
+    "CRANE_FLANGE_SURFACES",
+    "CRANE_SURFACES",
+    "CRANE_VOLUMES",
 ]
 
 # Split bar: cells left / right of model.split, and its two end points.
@@ -30,3 +33,21 @@ BEAM_TIP = "tip"
 BLOCK = "block"
 BLOCK_BOTTOM = "bottom"
 BLOCK_TOP = "top"
+
+# Crane mock-up, in the order of its physical groups (and so of their tags, from 1): volumes,
+# then surfaces. A wheel's groups end in its number k = 1..4.
+CRANE_VOLUMES = ["bridge_implicit", "trolley_frame"] + [
+    f"{p}_{k}" for k in range(1, 5) for p in ("zone", "wheel")
+]
+CRANE_SURFACES = ["clamped"] + [f"{p}_patch_{k}" for p in ("wheel", "rail") for k in range(1, 5)]
+#: The surface groups of a crane with flanges (after those of every crane): the inner faces of
+#: the flanges below the rail top, ``flange_patch_{in,out}_k``, and the rail side patches facing
+#: them, ``rail_side_patch_{in,out}_k``. ``in``: the flange between the rail and the crane's
+#: centre plane x = 0 (a mirror image of an inner flange is an inner flange); the wheel number
+#: last, as in every group of a wheel.
+CRANE_FLANGE_SURFACES = [
+    f"{p}_{side}_{k}"
+    for p in ("flange_patch", "rail_side_patch")
+    for side in ("in", "out")
+    for k in range(1, 5)
+]

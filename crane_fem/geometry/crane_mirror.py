@@ -1,0 +1,124 @@
+"""The crane's meshed region reflected in its planes of symmetry into the whole crane.
+
+The scene is symmetric in x = 0 and, with the trolley at mid-span, in y = span/2; the mesh is
+made so too: gmsh meshes the region x ≥ 0 (y ≤ span/2), which :func:`mirror_mesh` reflects
+into the whole crane.
+"""
+
+from __future__ import annotations
+
+import gmsh
+import numpy as np
+import numpy.typing as npt
+
+from crane_fem.geometry.crane_parameters import CraneGeometry
+from crane_fem.geometry.groups import CRANE_FLANGE_SURFACES, CRANE_SURFACES, CRANE_VOLUMES
+
+__all__ = ["IDENTITY", "mirror_mesh"]
+
+#: The 4×4 affine identity (row-major): the periodic map of coincident wheel/rail patches.
+IDENTITY = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
+
+
+def mirror_mesh(
+    geo: CraneGeometry,
+    planes: list[tuple[int, float]],
+    vol_groups: dict[str, list[int]],
+    surf_groups: dict[str, list[int]],
+) -> None:
+    """Replace the current gmsh model (the meshed region) by the whole crane: the region and its
+    mirror images in ``planes``, as discrete entities, one per physical group.
+
+    A node on a mirror plane is its own image there, so the images conform along the planes;
+    the scene's symmetric response is then the mesh's too (an unstructured mesh of the whole
+    crane rocks and pitches the trolley on its own under a vertical load). The wheel/rail
+    patches keep their periodic (node-to-node) correspondence.
+    """
+    tags, xyz, _ = gmsh.model.mesh.getNodes()
+    tags = tags.astype(np.int64)
+    xyz = xyz.reshape(-1, 3).copy()
+    index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
+    index[tags] = np.arange(tags.size)
+    on_plane = np.zeros(tags.size, dtype=np.int64)  # bit b: the node lies on plane b
+    for b, (axis, c) in enumerate(planes):
+        hit = np.abs(xyz[:, axis] - c) < 1e-10 * (1.0 + abs(c))
+        xyz[hit, axis] = c
+        on_plane[hit] |= 1 << b
+
+    def cells(dim: int, entities: list[int]) -> npt.NDArray[np.int64]:
+        etype, nper = (4, 4) if dim == 3 else (2, 3)
+        conn = [gmsh.model.mesh.getElementsByType(etype, e)[1] for e in entities]
+        return index[np.concatenate(conn).astype(np.int64)].reshape(-1, nper)
+
+    region = {(3, n): cells(3, e) for n, e in vol_groups.items()}
+    region |= {(2, n): cells(2, e) for n, e in surf_groups.items()}
+    centres = geo.wheel_centres()
+
+    def reflect(p: npt.NDArray[np.float64], copy: int) -> npt.NDArray[np.float64]:
+        q = p.copy()
+        for b, (axis, c) in enumerate(planes):
+            if copy >> b & 1:
+                q[..., axis] = 2.0 * c - q[..., axis]
+        return q + 0.0  # no negative zeros
+
+    def rename(name: str, copy: int) -> str:
+        stem, _, k = name.rpartition("_")
+        if not k.isdigit():
+            return name
+        image = reflect(np.array([*centres[int(k) - 1], 0.0]), copy)[:2]
+        (hit,) = [j for j, c in enumerate(centres) if np.allclose(c, image, atol=1e-9)]
+        return f"{stem}_{hit + 1}"
+
+    # Node (i, copy) is node (i, copy without the planes i lies on): one new node per pair.
+    n_copies = 1 << len(planes)
+    keys = np.concatenate(
+        [np.arange(tags.size) * n_copies + (c & ~on_plane) for c in range(n_copies)]
+    )
+    uniq, first, new = np.unique(keys, return_index=True, return_inverse=True)
+    new = new.reshape(n_copies, tags.size)
+    coords = np.concatenate([reflect(xyz, c) for c in range(n_copies)])[first]
+    groups: dict[tuple[int, str], list[npt.NDArray[np.int64]]] = {}
+    for c in range(n_copies):
+        flip = c.bit_count() % 2 == 1  # a reflection turns the elements inside out
+        for (dim, name), conn in region.items():
+            img = new[c][conn]
+            if flip:
+                img[:, [1, 2]] = img[:, [2, 1]]
+            groups.setdefault((dim, rename(name, c)), []).append(img)
+
+    gmsh.model.remove()
+    gmsh.model.add("crane")
+    entity: dict[tuple[int, str], int] = {}
+    surfaces = CRANE_SURFACES + (CRANE_FLANGE_SURFACES if geo.flanges else [])
+    for dim, names in ((3, CRANE_VOLUMES), (2, surfaces)):
+        for tag, name in enumerate(names, start=1):
+            if (dim, name) not in groups:
+                raise RuntimeError(f"crane geometry: no mesh for the group {name}")
+            entity[dim, name] = gmsh.model.addDiscreteEntity(dim, tag)
+    # The wheel/rail patch nodes belong to their patch surfaces (gmsh pairs them through
+    # these entities: it pairs the nodes an entity owns, and a node has one owner); every
+    # other node, the flange patches' too (paired by coordinates, mesh_info), to the first
+    # volume.
+    owner = np.zeros(uniq.size, dtype=np.int64)
+    for (dim, name), ent in entity.items():
+        if dim == 2 and name in CRANE_SURFACES and "patch" in name:
+            owner[np.concatenate(groups[dim, name]).ravel()] = ent
+    for ent in np.unique(owner):
+        nodes = np.flatnonzero(owner == ent)
+        dim, tag = (3, 1) if ent == 0 else (2, int(ent))
+        gmsh.model.mesh.addNodes(dim, tag, (nodes + 1).tolist(), coords[nodes].ravel().tolist())
+    next_element = 1
+    for (dim, name), ent in entity.items():
+        conn = np.concatenate(groups[dim, name])
+        gmsh.model.mesh.addElementsByType(
+            ent,
+            4 if dim == 3 else 2,
+            list(range(next_element, next_element + len(conn))),
+            (conn.ravel() + 1).tolist(),
+        )
+        next_element += len(conn)
+        gmsh.model.addPhysicalGroup(dim, [ent], ent, name)
+    for k in range(1, 5):
+        gmsh.model.mesh.setPeriodic(
+            2, [entity[2, f"wheel_patch_{k}"]], [entity[2, f"rail_patch_{k}"]], IDENTITY
+        )
