@@ -22,6 +22,7 @@ from petsc4py import PETSc
 from crane_fem.contact import ContactSet
 from crane_fem.errors import CraneFemError
 from crane_fem.kernels import explicit as kx
+from crane_fem.kernels.books import shadow_energies
 from crane_fem.kernels.mpi import comm_handle, create_requests
 from crane_fem.loading.body import AffineLoad
 from crane_fem.model import StructuralModel
@@ -508,7 +509,7 @@ class ExplicitZone:
     def local_energies(self) -> list[float]:
         """Local shadow kinetic and internal energy after the last micro step (THEORY.md §3:
         ½ V_{j+1/2}ᵀ M V_{j+1/2}, ½ U_{j+1}ᵀ K U_j = ½ U_jᵀ K U_j + ½ Δt V_{j+1/2}ᵀ K U_j)."""
-        kin, internal = kx.shadow_energies(self.vh, self.model.mass, self.u, self.ku, self.dt)
+        kin, internal = shadow_energies(self.vh, self.model.mass, self.u, self.ku, self.dt)
         return [kin, internal]
 
     def destroy(self) -> None:

@@ -33,6 +33,7 @@ from petsc4py import PETSc
 
 from crane_fem.contact import ContactSet
 from crane_fem.errors import CraneFemError
+from crane_fem.kernels import books
 from crane_fem.model import LoadFunction, StructuralModel
 
 __all__ = ["Newmark", "NewmarkSteps", "check_newmark_parameters"]
@@ -328,7 +329,7 @@ class Newmark(NewmarkSteps):
 
     def local_dot(self, x: FloatArray, y: FloatArray) -> float:
         """This rank's part of xᵀy for vectors of this side (sum it over the ranks)."""
-        return float(np.dot(x, y))
+        return float(books.dot(x, y))
 
     def field(self, x: FloatArray) -> FloatArray:
         """A vector of this side as a field on the subdomain's owned DOFs (itself here)."""

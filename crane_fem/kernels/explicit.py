@@ -95,7 +95,6 @@ __all__ = [
     "ZoneState",
     "apply_operator",
     "run_steps",
-    "shadow_energies",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -334,20 +333,3 @@ def run_steps(z: Zone, op: InterfaceOp, st: ZoneState, ctl: Steps, out: StepsOut
             _micro(z, op, st, ctl, out, jj, ctl.h0, ctl.move0)
         else:
             _micro(z, op, st, ctl, out, jj, z.dt, True)
-
-
-@numba.njit(cache=True)
-def shadow_energies(
-    vh: FloatArray, mass: FloatArray, u: FloatArray, ku: FloatArray, dt: float
-) -> tuple[float, float]:
-    """The zone's local shadow kinetic and internal energies after a micro step,
-    ½ V_{j+1/2}ᵀ M V_{j+1/2} and ½ U_jᵀ K U_j + ½ Δt V_{j+1/2}ᵀ K U_j, in one serial pass
-    (NumPy's dot would wake the BLAS threads, which then spin on the other cores)."""
-    kin = 0.0
-    uku = 0.0
-    vku = 0.0
-    for i in range(vh.size):
-        kin += vh[i] * mass[i] * vh[i]
-        uku += u[i] * ku[i]
-        vku += vh[i] * ku[i]
-    return 0.5 * kin, 0.5 * uku + 0.5 * dt * vku
