@@ -183,3 +183,16 @@ def test_crane_mesh_is_mirror_symmetric(position) -> None:
         e = xyz[tets[:, 1:]] - xyz[tets[:, :1]]
         assert np.all(np.einsum("ij,ij->i", e[:, 0], np.cross(e[:, 1], e[:, 2])) > 0.0)
     assert all(w.size == info.contact_pairs[0][0].size for w, _ in info.contact_pairs)
+
+
+def test_scenario_defaults_are_the_geometry_defaults() -> None:
+    """[model] of kind "crane" spells the geometry's defaults again (with their pydantic
+    bounds): both lists must agree, or a mesh built from CraneGeometry() would differ from
+    the scene's."""
+    from crane_fem.scenario import CraneModel
+
+    fields = CraneModel.model_fields
+    shared = [f for f in dataclasses.fields(CraneGeometry) if f.name in fields]
+    assert len(shared) >= 20, [f.name for f in shared]
+    for f in shared:
+        assert fields[f.name].default == f.default, f.name
