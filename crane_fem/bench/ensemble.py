@@ -30,6 +30,7 @@ from mpi4py import MPI
 
 from crane_fem.bench import Section
 from crane_fem.bench.common import Outcome, demo, explicit_settings, run_case, write_csv
+from crane_fem.io.results import flange_impacts
 
 __all__ = ["NAME", "SUMMARY", "Scene", "judge", "report_scenes", "run", "scene_report"]
 
@@ -88,7 +89,6 @@ def _quantities(o: Outcome, sliding: bool = False) -> dict[str, float]:
     """The engineering quantities of criterion (b) of a run (``sliding``: with each wheel's
     slip and flange impacts)."""
     q: dict[str, float] = {}
-    flanges = o.summary.get("flanges", {})
     for k, w in sorted(o.summary.get("wheels", {}).items()):
         q[f"wheel {k} lift-offs"] = float(w["lift_offs"]["count"])
         q[f"wheel {k} max uplift (mm)"] = 1e3 * w["max_uplift_m"]
@@ -96,11 +96,9 @@ def _quantities(o: Outcome, sliding: bool = False) -> dict[str, float]:
         if sliding:
             q[f"wheel {k} max slip across (mm)"] = 1e3 * w["max_slip_across_m"]
             q[f"wheel {k} max slip along (mm)"] = 1e3 * w["max_slip_along_m"]
-            sides = [flanges[f"{side}_{k}"] for side in ("in", "out") if f"{side}_{k}" in flanges]
-            q[f"wheel {k} flange impacts"] = float(sum(len(f["impacts"]) for f in sides))
-            q[f"wheel {k} flange peak force (kN)"] = 1e-3 * max(
-                (f["peak_force_N"] for f in sides), default=0.0
-            )
+            count, peak = flange_impacts(o.summary, k) or (0, 0.0)
+            q[f"wheel {k} flange impacts"] = float(count)
+            q[f"wheel {k} flange peak force (kN)"] = 1e-3 * peak
     q["girder peak von Mises (MPa)"] = 1e-6 * float(o.summary.get("peak_bridge_von_mises_Pa", 0))
     return q
 

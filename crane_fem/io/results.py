@@ -7,7 +7,7 @@ import csv
 from pathlib import Path
 from typing import Any
 
-__all__ = ["results_lines", "results_rows", "write_results_csv"]
+__all__ = ["flange_impacts", "results_lines", "results_rows", "write_results_csv"]
 
 COLUMNS = ["quantity", "where", "value", "unit", "time_s", "x_m", "y_m", "z_m"]
 
@@ -100,22 +100,30 @@ def results_lines(summary: dict[str, Any]) -> list[str]:
     return lines
 
 
+def flange_impacts(summary: dict[str, Any], wheel: str) -> tuple[int, float] | None:
+    """Wheel ``wheel``'s flanges, both sides (summary ``flanges``, keys ``in_<k>``,
+    ``out_<k>``): their impact count and the larger peak force (N); None without flanges."""
+    flanges = summary.get("flanges", {})
+    sides = [flanges[f"{side}_{wheel}"] for side in ("in", "out") if f"{side}_{wheel}" in flanges]
+    if not sides:
+        return None
+    count = sum(len(f.get("impacts", [])) for f in sides)
+    return count, max(f["peak_force_N"] for f in sides)
+
+
 def _sliding_lines(summary: dict[str, Any]) -> list[str]:
     """Per wheel: its largest slip across and along its rail (against the reach of its
     contact pairs) and its flanges' impacts (both sides), when the run has them."""
     wheels = summary.get("wheels", {})
     if not any("max_slip_across_m" in w for w in wheels.values()):
         return []
-    flanges = summary.get("flanges", {})
     lines = [
         "   wheel  slip across (mm)  slip along (mm)  reach (mm)  flange impacts  "
         "flange peak force (kN)"
     ]
     for name, w in wheels.items():
-        sides = [flanges[f"{side}_{name}"] for side in ("in", "out") if f"{side}_{name}" in flanges]
-        n_imp = sum(len(f.get("impacts", [])) for f in sides)
-        peak = max((f["peak_force_N"] for f in sides), default=0.0)
-        flange = f"{n_imp:14d}  {peak / 1e3:22.3f}" if sides else f"{'no flanges':>14}"
+        both = flange_impacts(summary, name)
+        flange = f"{both[0]:14d}  {both[1] / 1e3:22.3f}" if both else f"{'no flanges':>14}"
         lines.append(
             f"{name:>8}  {w['max_slip_across_m'] * 1e3:16.3f}  {w['max_slip_along_m'] * 1e3:15.3f}"
             f"  {w['slip_reach_m'] * 1e3:10.2f}  {flange}"
