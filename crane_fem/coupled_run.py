@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -22,7 +23,7 @@ from crane_fem.checkpoint import (
     scenario_hash,
     write_checkpoint,
 )
-from crane_fem.coupling import MacroRecord
+from crane_fem.coupling import MacroRecord, MacroStep
 from crane_fem.errors import RunInterrupted, ScenarioError, UnstableRunError
 from crane_fem.io import HistoryWriter, XDMFSeries
 from crane_fem.io.results import write_results_csv
@@ -135,13 +136,31 @@ class LoopBooks:
 def _step_sizes(sim: Simulation) -> dict[str, Any]:
     """What a checkpoint must share with the run that continues it, beyond the scenario."""
     md = sim.models
-    return {"method": md.method, "ratio": md.ratio, "dt": md.dt, "dT": md.dT}
+    return {
+        "method": md.method,
+        "ratio": md.ratio,
+        "dt": md.dt,
+        "dT": md.dT,
+        "sample_steps": md.sample_steps,
+    }
+
+
+def _records(
+    method: MacroStep, force0: FloatArray | None, resumed: MacroRecord | None
+) -> Iterator[MacroRecord]:
+    """The macro records of a run: the start's (or the resumed checkpoint's), then one per
+    macro step to the clock's end (collective)."""
+    rec = method.initialize(force0) if resumed is None else resumed
+    yield rec
+    grid = method.system.grid
+    while not grid.finished:
+        yield method.step()
 
 
 def _save(sim: Simulation, out: Path, rec: MacroRecord, books: LoopBooks) -> None:
     """The checkpoint of ``rec``'s macro step, before the loop uses ``rec`` (collective)."""
     sc = sim.scenario
-    meta = {"step": rec.step, "t": rec.t, "scenario": sc.name}
+    meta = {"step": rec.step, "micro_step": rec.micro_step, "t": rec.t, "scenario": sc.name}
     meta.update(scenario_hash=scenario_hash(sc), **_step_sizes(sim))
     state = {
         "method": sim.integrators.method.state_dict(),
@@ -162,7 +181,7 @@ def _resume(ckpt: Checkpoint, sim: Simulation, books: LoopBooks, restart: Path) 
                 f"--restart: the checkpoint's {key} = {meta.get(key)!r} differs from this "
                 f"run's {value!r}"
             )
-    if ckpt.step > sim.models.n_macro:
+    if int(meta.get("micro_step", 0)) > sim.models.end_steps:
         raise ScenarioError(
             f"--restart: time.end = {sim.scenario.time.end:g} s is before the checkpoint in "
             f"{restart} (t = {meta['t']:g} s)"
@@ -198,6 +217,7 @@ def _summary_head(sc: Scenario, sim: Simulation, comm: MPI.Comm) -> dict[str, An
         "dt_critical": md.dt_critical,
         "steps": md.n_macro if md.coupled else n_steps,
         "micro_steps": n_steps,
+        "sampling_interval_s": md.sample_steps * md.dt,
         "interface_dofs": int(cons.interface_vertices.size * sub.bs),
         # Global DOF counts of each side (their ratio and n_Γ set the cost of a coupled run).
         "dofs_explicit": md.explicit.model.K.getSize()[0] if md.explicit is not None else 0,
@@ -248,12 +268,11 @@ def run_coupled(
     method = it.method
     rows = HistoryRows(sim)
     monitors = create_monitors(sim, out)
-    points = monitors.points
-    columns = rows.columns + (points.columns if points is not None else [])
+    columns = rows.columns + monitors.columns
     b = LoopBooks({c: [] for c in columns}, monitors)
     history = b.history
     every = sc.output.every
-    xdmf_every = sc.output.xdmf_every or max(1, md.n_macro // 200)
+    xdmf_every = sc.output.xdmf_every or max(1, it.system.grid.n_samples // 200)
     ckpt_every = sc.output.checkpoint_every
     summary = _summary_head(sc, sim, comm)
     resumed = None
@@ -268,7 +287,9 @@ def run_coupled(
         monitors.destroy()
         sim.destroy()
         raise
-    bar = progress_bar(sc, comm, progress, md.n_macro, "macro step")
+    grid = it.system.grid
+    n_s = grid.sample
+    bar = progress_bar(sc, comm, progress, grid.end, "step")
     comm.barrier()
     t_loop = time.perf_counter()
     summary["wall_time_setup_s"] = comm.allreduce(t_loop - t_wall, op=MPI.MAX)
@@ -277,13 +298,13 @@ def run_coupled(
     stop = StopRequest(comm)
     try:
         with stop, HistoryWriter(out / "history.csv", columns, comm, history) as writer:
-            rec = method.initialize(it.interface_force0) if resumed is None else resumed
-            bar.update(rec.step)
-            n = rec.step
-            while True:
-                # The checkpoint of a macro step is taken before its record is used: the run
-                # continued from it uses the record as this one does.
-                due = ckpt_every and rec.step and rec.step % ckpt_every == 0
+            for rec in _records(method, it.interface_force0, resumed):
+                bar.update(rec.micro_step - bar.n)
+                sample, at_sample = divmod(rec.micro_step, n_s)
+                at_sample = at_sample == 0
+                # The checkpoint of a sampling instant is taken before its record is used:
+                # the run continued from it uses the record as this one does.
+                due = ckpt_every and at_sample and sample and sample % ckpt_every == 0
                 if due and rec is not resumed and method.resumable():
                     t_ck = time.perf_counter()
                     _save(sim, out, rec, b)
@@ -298,16 +319,16 @@ def run_coupled(
                     comm.Barrier()
                 t_out = time.perf_counter()
                 stopping = stop.requested()
-                last = rec.step == md.n_macro or stopping
-                monitors.sample(rec, last)
-                if rec.step % every == 0 or last:
+                last = rec.micro_step >= grid.end or stopping
+                if at_sample or last:
+                    monitors.sample(rec, last)
+                if (at_sample and sample % every == 0) or last:
                     row = rows.row(rec)
-                    if points is not None:
-                        row.update(points.history_row(rec.t))
+                    row.update(monitors.history_row(rec.t))
                     writer.write(row)
                     for c in columns:
                         history[c].append(row[c])
-                frame = rec.step % xdmf_every == 0 or last
+                frame = (at_sample and sample % xdmf_every == 0) or last
                 if writers and frame:
                     b.frames += 1
                     for sub, w in writers:
@@ -328,13 +349,9 @@ def run_coupled(
                 if stopping:
                     raise RunInterrupted(
                         f"interrupted by {stop.signal_name} at t = {rec.t:.6g} s "
-                        f"(macro step {rec.step} of {md.n_macro}); the files hold the steps done"
+                        f"(macro step {rec.step}, {rec.micro_step} of {grid.end} micro steps); "
+                        "the files hold the steps done"
                     )
-                if n == md.n_macro:
-                    break
-                rec = method.step()
-                n += 1
-                bar.update(1)
         summary["status"] = "completed"
     except UnstableRunError as exc:
         summary["status"] = "unstable"
@@ -368,7 +385,8 @@ def run_coupled(
                 "written": n_checkpoints,
                 "wall_time_s": comm.allreduce(t_checkpoint, op=MPI.MAX),
             }
-        summary["steps_done"] = round(history["t"][-1] / md.dT) if history["t"] else 0
+        summary["steps_done"] = grid.n
+        summary["micro_steps_done"] = grid.i
         summary["interface_energy_gc_min_step"] = (
             b.ifd_min_step if math.isfinite(b.ifd_min_step) else 0.0
         )

@@ -2,10 +2,14 @@
 the absolute acceleration at named points of the structure (in-structure, or floor, motion).
 
 A point is the mesh vertex nearest the given coordinates, read on the explicit side when that
-side holds it (its velocity is that of the micro steps' end), else on the implicit side (a few
-rows of a reduced side's basis). It is sampled every macro step; its acceleration between two
-samples is the mean one, Δv / ΔT, plus the ground's mean acceleration over the interval: the
-relative formulation's motion is relative to the ground.
+side holds it, else on the implicit side (a few rows of a reduced side's basis). It is sampled
+every sampling interval δ; its acceleration is the second difference of its displacement,
+(u_k − 2 u_k−1 + u_k−2) / δ², plus the ground's acceleration weighted alike (¼, ½, ¼): the
+relative formulation's motion is relative to the ground. That is the exact mean over the
+interval of the mean velocity (a triangle filter of width 2δ, centred on t_k−1): the crane's
+impacts leave ringing far above the sampling's Nyquist frequency (1–100 kHz at a clamped face),
+which an instantaneous velocity or acceleration would fold into the spectra's band; the
+second difference keeps it out, the same way in every method (benchmarks/RESULTS.md).
 """
 
 from __future__ import annotations
@@ -134,7 +138,9 @@ class PointMotions:
         )
         self.t: list[float] = []
         self.acc: list[FloatArray] = []
-        self._v_prev: FloatArray | None = None
+        #: The last two samples' displacements and times (the second difference's).
+        self._u_prev: list[FloatArray] = []
+        self._t_prev: list[float] = []
 
     def ground_row(self, t: float) -> dict[str, float]:
         """The ground acceleration's columns at ``t`` (not collective)."""
@@ -157,35 +163,41 @@ class PointMotions:
     def sample(
         self,
         t: float,
-        v_explicit: FloatArray | None,
-        v_implicit_dofs: FloatArray | None,
+        u_explicit: FloatArray | None,
+        u_implicit_dofs: FloatArray | None,
     ) -> dict[str, float]:
-        """Sample the points' velocities at ``t`` (the explicit side's owned field, the
+        """Sample the points' displacements at ``t`` (the explicit side's owned field, the
         implicit side's at :attr:`implicit_dofs`) and return the row values of the points'
-        columns: each point's absolute mean acceleration since the last sample
-        (collective)."""
+        columns: each point's absolute acceleration centred one sampling interval earlier
+        (the ground's alone until three samples are taken) (collective)."""
         bs = self.bs
-        vel = np.zeros((len(self.points), bs))
+        disp = np.zeros((len(self.points), bs))
         k = 0
         for i, p in enumerate(self.points):
             if not p.blocks.size:
                 continue
-            if p.side == "explicit" and v_explicit is not None:
-                vel[i] = v_explicit.reshape(-1, bs)[p.blocks[0]]
-            elif p.side == "implicit" and v_implicit_dofs is not None:
-                vel[i] = v_implicit_dofs[k : k + bs]
+            if p.side == "explicit" and u_explicit is not None:
+                disp[i] = u_explicit.reshape(-1, bs)[p.blocks[0]]
+            elif p.side == "implicit" and u_implicit_dofs is not None:
+                disp[i] = u_implicit_dofs[k : k + bs]
                 k += bs
-        vel = self.comm.allreduce(vel, op=MPI.SUM)
-        ag = self.ground(t)[:bs]
-        if self._v_prev is None or not self.t:
-            acc = np.tile(ag, (len(self.points), 1))
+        disp = self.comm.allreduce(disp, op=MPI.SUM)
+        if len(self._u_prev) < 2:
+            at = t
+            acc = np.tile(self.ground(t)[:bs], (len(self.points), 1))
         else:
-            dt = t - self.t[-1]
-            ag_mean = 0.5 * (ag + self.ground(self.t[-1])[:bs])
-            acc = (vel - self._v_prev) / dt + ag_mean[None, :]
-        self._v_prev = vel
-        self.t.append(t)
-        self.acc.append(acc.copy())
+            (u2, u1), (t2, t1) = self._u_prev, self._t_prev
+            h = 0.5 * (t - t2)
+            ag = 0.25 * (self.ground(t2) + 2.0 * self.ground(t1) + self.ground(t))[:bs]
+            acc = (disp - 2.0 * u1 + u2) / (h * h) + ag[None, :]
+            at = t1
+        self._u_prev = [*self._u_prev[-1:], disp]
+        self._t_prev = [*self._t_prev[-1:], t]
+        if self.t and self.t[-1] == at:  # the ground's alone at t_k−1 gives way
+            self.t[-1], self.acc[-1] = at, acc.copy()
+        else:
+            self.t.append(at)
+            self.acc.append(acc.copy())
         row: dict[str, float] = {}
         for i, p in enumerate(self.points):
             for j, c in enumerate("xyz"[:bs]):
@@ -193,19 +205,20 @@ class PointMotions:
         return row
 
     def state_dict(self) -> dict[str, Any]:
-        """The samples so far and the last velocities (a checkpoint; global values)."""
+        """The samples so far and the last two displacements (a checkpoint; global
+        values)."""
         shape = (len(self.t), len(self.points), self.bs)
         out: dict[str, Any] = {"t": np.asarray(self.t, dtype=np.float64)}
         out["acc"] = np.asarray(self.acc, dtype=np.float64).reshape(shape)
-        if self._v_prev is not None:
-            out["v_prev"] = self._v_prev.copy()
+        out["u_prev"] = np.asarray(self._u_prev, dtype=np.float64)
+        out["t_prev"] = np.asarray(self._t_prev, dtype=np.float64)
         return out
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.t = [float(x) for x in state["t"]]
         self.acc = [np.array(a, dtype=np.float64) for a in state["acc"]]
-        v = state.get("v_prev")
-        self._v_prev = None if v is None else np.array(v, dtype=np.float64)
+        self._u_prev = [np.array(u, dtype=np.float64) for u in state["u_prev"]]
+        self._t_prev = [float(x) for x in state["t_prev"]]
 
     def series(self) -> tuple[FloatArray, dict[str, FloatArray]]:
         """The sample times and, per column name, its samples (ground included)."""

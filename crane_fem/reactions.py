@@ -134,8 +134,9 @@ class SupportReactions:
         np.add.at(local, self.labels, r.reshape(-1, bs))
         return np.asarray(self.comm.allreduce(local, op=MPI.SUM), dtype=np.float64)
 
-    def update(self, t: float, u: FloatArray, v: FloatArray, ground: FloatArray) -> None:
-        """Evaluate the faces' forces at ``t`` and keep their peaks (collective)."""
+    def update(self, t: float, u: FloatArray, v: FloatArray, ground: FloatArray) -> FloatArray:
+        """Evaluate the faces' forces at ``t`` and keep their peaks; return the forces
+        (n_faces, bs), N (collective)."""
         f = self.forces(t, u, v, ground)
         if self.initial is None:
             self.initial = f
@@ -145,6 +146,7 @@ class SupportReactions:
         vert = np.abs(f[:, -1])
         better = vert > self.peak_vertical
         self.peak_vertical[better], self.t_vertical[better] = vert[better], t
+        return f
 
     def state_dict(self) -> dict[str, Any]:
         """The peaks, the first forces and the last velocities (a checkpoint; the velocities

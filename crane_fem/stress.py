@@ -54,14 +54,40 @@ class VonMises:
     ) -> tuple[float, FloatArray]:
         """The largest σ_vm over the owned ``cells`` of all ranks and the centre of its cell
         (m; the lowest rank's on a tie) (collective)."""
+        labels = np.zeros(cells.size, dtype=np.int64)
+        values, where = self.peaks_by(u, cells, labels, 1, comm)
+        return float(values[0]), where[0]
+
+    def peaks_by(
+        self,
+        u: FloatArray,
+        cells: npt.NDArray[np.int32],
+        labels: npt.NDArray[np.int64],
+        n_labels: int,
+        comm: MPI.Comm,
+    ) -> tuple[FloatArray, FloatArray]:
+        """Per label 0..``n_labels`` − 1 of the owned ``cells``, the largest σ_vm of all ranks
+        and the centre of its cell ((n_labels,), (n_labels, 3); the lowest rank's on a tie;
+        0 and the origin for a label without cells) (collective: one evaluation, one
+        gather)."""
         vm = self.evaluate(u)[cells]
-        where = np.zeros(3)
-        value = 0.0
-        if vm.size:
-            k = int(np.argmax(vm))
-            value = float(vm[k])
-            mesh = self.field.function_space.mesh
-            mid = dolfinx.mesh.compute_midpoints(mesh, mesh.topology.dim, cells[k : k + 1])
-            where[: mid.shape[1]] = mid[0]
-        best = max(comm.allgather((value, -comm.rank, where.tolist())))
-        return best[0], np.asarray(best[2])
+        local = np.zeros(n_labels)
+        where = np.zeros((n_labels, 3))
+        mesh = self.field.function_space.mesh
+        for k in range(n_labels):
+            sel = np.flatnonzero(labels == k)
+            if sel.size == 0:
+                continue
+            j = sel[int(np.argmax(vm[sel]))]
+            local[k] = vm[j]
+            mid = dolfinx.mesh.compute_midpoints(mesh, mesh.topology.dim, cells[j : j + 1])
+            where[k, : mid.shape[1]] = mid[0]
+        gathered = comm.allgather((local, where))
+        values = np.zeros(n_labels)
+        at = np.zeros((n_labels, 3))
+        for k in range(n_labels):
+            # The largest value, the lowest rank on a tie (ranks in order: strict >).
+            for vals, wh in gathered:
+                if vals[k] > values[k]:
+                    values[k], at[k] = vals[k], wh[k]
+        return values, at

@@ -195,13 +195,13 @@ def test_restart_after_an_interruption_within_a_macro_step(shared_tmp, monkeypat
     """A run stopped by Ctrl-C in the middle of macro step 33 (its state half-updated, rows
     and frames written up to step 32) continues from its checkpoint at step 25 to the
     uninterrupted run's result, XDMF frames included."""
-    from crane_fem.coupling import GravouilCombescure
+    from crane_fem.coupling.gravouil_combescure import GravouilCombescure
 
     step = GravouilCombescure.step
 
     def interrupted(self: GravouilCombescure) -> Any:
         if self.system.n == 32:
-            self.system.E.advance(self.system.E.steps(self.system.n * self.system.dT, 2))
+            self.system.E.advance(self.system.E.steps(self.system.t, 2))
             raise KeyboardInterrupt
         return step(self)
 

@@ -19,7 +19,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg
 
-from crane_fem.coupling.protocol import MethodBase
+from crane_fem.coupling.protocol import MethodBase, MethodSetup
 from crane_fem.coupling.system import CoupledSystem, MacroRecord, MicroTrace
 from crane_fem.errors import CraneFemError
 from crane_fem.integrators.explicit_zone import ExplicitZone
@@ -32,6 +32,7 @@ __all__ = [
     "EC_TOL",
     "ECStep",
     "EnergyConserving",
+    "create",
     "interface_response",
 ]
 
@@ -115,13 +116,13 @@ class EnergyConserving(MethodBase):
     def step(self) -> MacroRecord:
         s = self.system
         closed = s.E.contacts.closed(s.contact_gaps())  # type: ignore[union-attr]
-        res = self.macro(s.n * s.dT, closed, fallback=False)
+        res = self.macro(s.t, closed, fallback=False)
         assert res is not None
         return self.record(res)
 
     def record(self, res: ECStep) -> MacroRecord:
         s = self.system
-        s.n += 1
+        s.advance()
         return s.record(res.lam, res.gaps, res.micro, res.G.copy())
 
     def _factor(self, closed: npt.NDArray[np.bool_]) -> tuple[FloatArray, bool]:
@@ -219,3 +220,8 @@ class EnergyConserving(MethodBase):
             "ec_passes_max": int(np.max(self.passes)),
             "ec_residual_max": self.residual,
         }
+
+
+def create(system: CoupledSystem, setup: MethodSetup) -> EnergyConserving:
+    """ "ec" (no operator or keys of its own)."""
+    return EnergyConserving(system)

@@ -16,12 +16,14 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-from crane_fem.coupling.protocol import MethodBase
+from crane_fem.coupling.gravouil_combescure import GCStep
+from crane_fem.coupling.protocol import MethodBase, MethodSetup
 from crane_fem.coupling.system import CoupledSystem, MacroRecord
 from crane_fem.kernels import explicit as kx
 
-__all__ = ["GCMean"]
+__all__ = ["GCMean", "create"]
 
 
 class GCMean(MethodBase):
@@ -38,10 +40,17 @@ class GCMean(MethodBase):
 
     def step(self) -> MacroRecord:
         s = self.system
+        res = self.macro(s.t)
+        s.advance()
+        return res.record(s)
+
+    def macro(self, t0: float, watch: npt.NDArray[np.bool_] | None = None) -> GCStep:
+        """The step [t0, t0 + ΔT] with the system's m, ΔT and implicit side; books its energy
+        terms (collective). ``watch``: contact points closed at t0, to flag a change."""
+        s = self.system
         E, I = s.E, s.I  # noqa: E741
         assert E is not None and I is not None
         m, dT = s.m, s.dT
-        t0 = s.n * dT
         st = s.trapezoid_start(t0)
         a = I.interface_values(st.du_free) / dT
         j = np.arange(1, m + 1)
@@ -53,6 +62,7 @@ class GCMean(MethodBase):
             tc=np.column_stack([1.0 - j / m, j / m]),
             k_op=np.full(m, float(m)),
             keep_impulses=True,
+            watch=watch,
         )
         out = E.advance(ctl, self.op)
         impulses = out.impulses  # Λ̂_j, for the dissipation identity
@@ -65,8 +75,11 @@ class GCMean(MethodBase):
         sq = float(np.einsum("ij,ij->", impulses @ I.W, impulses))
         closed_form = 0.5 * (m * sq - float(S @ (I.W @ S)))
         self.identity_error = max(self.identity_error, abs(-link - closed_form))
-        s.n += 1
-        return s.record(out.lam, out.gaps, s.micro_trace(t0, out), G.copy())
+        flags = out.flags
+        micro = s.micro_trace(t0, out)
+        return GCStep(
+            out.lam, out.gaps, micro, bool(flags[kx.CHANGED]), G.copy(), bool(flags[kx.CLOSED])
+        )
 
     def summary(self) -> dict[str, Any]:
         return {"interface_identity_error": self.identity_error}
@@ -76,3 +89,8 @@ class GCMean(MethodBase):
 
     def load_method_state(self, state: dict[str, Any]) -> None:
         self.identity_error = float(state["identity_error"])
+
+
+def create(system: CoupledSystem, setup: MethodSetup) -> GCMean:
+    """gc-mean on the system's implicit side and ratio."""
+    return GCMean(system, setup.operator_for(system))

@@ -23,24 +23,39 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from crane_fem.coupling.protocol import MethodBase
+from crane_fem.coupling.protocol import MethodBase, MethodSetup
 from crane_fem.coupling.system import CoupledSystem, MacroRecord, MicroTrace
 from crane_fem.kernels import explicit as kx
 
-__all__ = ["GCStep", "GravouilCombescure"]
+__all__ = ["GCStep", "GravouilCombescure", "create"]
 
 FloatArray = npt.NDArray[np.float64]
 
 
 class GCStep:
     """What a GC macro step returns: the last micro step's stacked impulses and gaps, the
-    micro-step contact flags, and whether the closed contact set differed from the watched
-    one at some micro step."""
+    micro-step contact flags, whether the closed contact set differed from the watched one
+    at some micro step, the link force the record reports (None: the last micro step's,
+    ``lam`` / Δt), and whether a watched open point closed."""
 
-    __slots__ = ("changed", "gaps", "lam", "micro")
+    __slots__ = ("changed", "closed", "gaps", "interface_force", "lam", "micro")
 
-    def __init__(self, lam: FloatArray, gaps: FloatArray, micro: MicroTrace, changed: bool) -> None:
+    def __init__(
+        self,
+        lam: FloatArray,
+        gaps: FloatArray,
+        micro: MicroTrace,
+        changed: bool,
+        interface_force: FloatArray | None = None,
+        closed: bool = False,
+    ) -> None:
         self.lam, self.gaps, self.micro, self.changed = lam, gaps, micro, changed
+        self.interface_force = interface_force
+        self.closed = closed
+
+    def record(self, system: CoupledSystem) -> MacroRecord:
+        """The record of the system after this step (its clock advanced)."""
+        return system.record(self.lam, self.gaps, self.micro, self.interface_force)
 
 
 class GravouilCombescure(MethodBase):
@@ -60,9 +75,9 @@ class GravouilCombescure(MethodBase):
 
     def step(self) -> MacroRecord:
         s = self.system
-        res = self.macro(s.n * s.dT)
-        s.n += 1
-        return s.record(res.lam, res.gaps, res.micro)
+        res = self.macro(s.t)
+        s.advance()
+        return res.record(s)
 
     def macro(self, t0: float, watch: npt.NDArray[np.bool_] | None = None) -> GCStep:
         """The GC step [t0, t0 + ΔT] with the system's m, ΔT and implicit side; books its
@@ -101,4 +116,16 @@ class GravouilCombescure(MethodBase):
         # products of reduced interface vectors).
         gc_e, phys_e = float(out.sums[kx.GC_WORK]), float(out.sums[kx.PHYS_WORK])
         s.book_interface(link_e + link_i, gc_e + link_i, phys_e + phys_i)
-        return GCStep(out.lam, out.gaps, s.micro_trace(t0, out), bool(out.flags[kx.CHANGED]))
+        flags = out.flags
+        return GCStep(
+            out.lam,
+            out.gaps,
+            s.micro_trace(t0, out),
+            bool(flags[kx.CHANGED]),
+            closed=bool(flags[kx.CLOSED]),
+        )
+
+
+def create(system: CoupledSystem, setup: MethodSetup) -> GravouilCombescure:
+    """GC on the system's implicit side and ratio."""
+    return GravouilCombescure(system, setup.operator_for(system))

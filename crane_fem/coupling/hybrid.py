@@ -18,11 +18,11 @@ import numpy.typing as npt
 
 from crane_fem.coupling.energy_conserving import EnergyConserving
 from crane_fem.coupling.gravouil_combescure import GCStep, GravouilCombescure
-from crane_fem.coupling.protocol import MethodBase
+from crane_fem.coupling.protocol import MethodBase, MethodSetup
 from crane_fem.coupling.system import CoupledSystem, ImplicitSide, MacroRecord, MicroTrace
 from crane_fem.kernels import explicit as kx
 
-__all__ = ["Hybrid"]
+__all__ = ["Hybrid", "create"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -67,7 +67,7 @@ class Hybrid(MethodBase):
         s = self.system
         E, I = s.E, s.I  # noqa: E741
         assert E is not None and I is not None
-        t0 = s.n * s.dT
+        t0 = s.t
         closed = E.contacts.closed(s.contact_gaps())
         if not np.any(closed):
             res = self.ec.macro(t0, closed, fallback=True)
@@ -87,7 +87,7 @@ class Hybrid(MethodBase):
             self.steps_taken["gc_refined"] += 1
         else:
             self.steps_taken["gc"] += 1
-        s.n += 1
+        s.advance()
         return s.record(out.lam, out.gaps, out.micro)
 
     def _refined(self, t0: float) -> GCStep:
@@ -127,3 +127,18 @@ class Hybrid(MethodBase):
     def destroy(self) -> None:
         if self._fine is not None:
             self._fine[0].destroy()
+
+
+def create(system: CoupledSystem, setup: MethodSetup) -> Hybrid:
+    """ "hybrid" with GC's operator at the system's ratio and at its refined steps, and its
+    keys ``impact_ratio``, ``interface_tolerance`` where the scenario sets them."""
+    op = setup.operator
+    if op is None:
+        raise ValueError("method 'hybrid' needs the interface operator")
+    dt = system.dt
+    return Hybrid(
+        system,
+        setup.operator_for(system),
+        lambda side: op(side, round(side.dT / dt)),
+        **setup.options,
+    )

@@ -20,12 +20,12 @@ import numpy.typing as npt
 
 from crane_fem.coupling.energy_conserving import interface_response
 from crane_fem.coupling.ph_energy import PHStorage
-from crane_fem.coupling.protocol import MethodBase
+from crane_fem.coupling.protocol import MethodBase, MethodSetup
 from crane_fem.coupling.system import PH_KEYS, CoupledSystem, MacroRecord
 from crane_fem.errors import CraneFemError
 from crane_fem.kernels import explicit as kx
 
-__all__ = ["PrakashHjelmstad"]
+__all__ = ["PrakashHjelmstad", "create"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -100,7 +100,7 @@ class PrakashHjelmstad(MethodBase):
         s = self.system
         E, I, m, n_g = s.E, s.I, s.m, s.n_gamma  # noqa: E741
         assert E is not None and I is not None
-        t0 = s.n * s.dT
+        t0 = s.t
         t1 = t0 + s.dT
         cv0 = s.damping_now()
         uf, vf, af = I.free_step(t1)
@@ -132,7 +132,7 @@ class PrakashHjelmstad(MethodBase):
             self._book(t1, lam_force, link_i)
         gc_e, phys_e = float(out.sums[kx.GC_WORK]), float(out.sums[kx.PHYS_WORK])
         s.book_interface(link_e + link_i, gc_e + link_i, phys_e + phys_i)
-        s.n += 1
+        s.advance()
         return s.record(out.lam, out.gaps, s.micro_trace(t0, out))
 
     def _state(self, t: float, lam_force: FloatArray) -> tuple[float, FloatArray, FloatArray]:
@@ -186,3 +186,8 @@ class PrakashHjelmstad(MethodBase):
         if self.storage is not None:
             out["ph_kappa_min"], out["ph_kappa_max"] = self.storage.kappa_range
         return out
+
+
+def create(system: CoupledSystem, setup: MethodSetup) -> PrakashHjelmstad:
+    """ "ph" (no operator or keys of its own)."""
+    return PrakashHjelmstad(system)

@@ -8,13 +8,35 @@ and writes.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any, ClassVar, Protocol
 
+import numpy as np
 import numpy.typing as npt
 
 from crane_fem.coupling.system import CoupledSystem, ImplicitSide, MacroRecord
+from crane_fem.kernels.zone import InterfaceOp
 
-__all__ = ["ImplicitSide", "MacroStep", "MethodBase"]
+__all__ = ["ImplicitSide", "MacroStep", "MethodBase", "MethodSetup"]
+
+
+@dataclass(frozen=True)
+class MethodSetup:
+    """What a coupling module's ``create(system, setup)`` may use beyond the system: the
+    interface operator of an implicit side at a ratio (the methods that solve the interface
+    every micro step), the method's own ``[coupling]`` keys that the scenario sets, and each
+    contact group's static force (N; the preload's, or None)."""
+
+    operator: Callable[[ImplicitSide, int], InterfaceOp] | None = None
+    options: dict[str, Any] = field(default_factory=dict)
+    static: npt.NDArray[np.float64] | None = None
+
+    def operator_for(self, system: CoupledSystem) -> InterfaceOp:
+        """The operator of the system's current implicit side and ratio."""
+        if self.operator is None or system.I is None:
+            raise ValueError("this coupling method needs the interface operator")
+        return self.operator(system.I, system.m)
 
 
 class MacroStep(Protocol):

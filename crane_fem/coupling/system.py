@@ -22,6 +22,7 @@ from crane_fem.energy import BALANCE_TERMS
 from crane_fem.integrators.explicit_zone import ExplicitZone, ZoneSnapshot
 from crane_fem.kernels import explicit as kx
 from crane_fem.model import StructuralModel
+from crane_fem.timegrid import TimeGrid
 
 __all__ = [
     "ENERGY_KEYS",
@@ -148,6 +149,8 @@ class MacroRecord:
     #: The implicit side's displacement and velocity at some owned DOFs only (cheap on a
     #: reduced side: a few rows of its basis).
     implicit_rows: Callable[[npt.NDArray[np.int64]], tuple[FloatArray, FloatArray]] | None = None
+    #: Micro steps of Δt from t = 0 to t (the clock's exact count).
+    micro_step: int = 0
 
     def implicit_at(self, rows: npt.NDArray[np.int64]) -> tuple[FloatArray, FloatArray] | None:
         """(U, V) of the implicit side at owned DOFs ``rows``, without expanding the field
@@ -190,6 +193,7 @@ class MacroRecord:
             "impulse_explicit": self.impulse_explicit,
             "impulse_defect": self.impulse_defect,
             "interface_velocity_jump": self.interface_velocity_jump,
+            "micro_step": self.micro_step,
         }
 
 
@@ -202,6 +206,7 @@ class Snapshot:
     arrays: tuple[FloatArray, ...]
     acc: dict[str, float]
     energies: tuple[float, float, float, float]
+    clock: dict[str, Any]
 
 
 @dataclass
@@ -226,7 +231,8 @@ class CoupledSystem:
         E, I: the explicit zone and the Newmark side (None when absent); the implicit side
             holds its interface rows L_I, and its vectors may be of a space of its own (a
             reduced basis): the books reach them only through its methods.
-        m, dt, dT: the ratio, micro and macro steps (s).
+        m, dt, dT: the ratio of the macro step now taken, the micro and macro steps (s).
+        grid: the run's clock (:class:`~crane_fem.timegrid.TimeGrid`): t and the steps done.
         acc: the accumulated energy terms (J, global).
         lam_macro_prev: the link force Λ (N) at the start of the macro step.
         impulse_E, impulse_I: the interface impulses each side received since t = 0 (N·s).
@@ -238,6 +244,7 @@ class CoupledSystem:
         implicit: ImplicitSide | None,
         ratio: int,
         dt: float,
+        grid: TimeGrid | None = None,
     ) -> None:
         if explicit is None and implicit is None:
             raise ValueError("nothing to integrate")
@@ -254,9 +261,24 @@ class CoupledSystem:
         self.lam_macro_prev = np.zeros(self.n_gamma)
         self.impulse_E = np.zeros(self.n_gamma)
         self.impulse_I = np.zeros(self.n_gamma)
-        self.n = 0
+        # Without a grid (a system stepped by hand), a clock that never ends.
+        self.grid = grid if grid is not None else TimeGrid(self.dt, 2**62, self.m)
         self.e_kin = self.e_int = self.i_kin = self.i_int = 0.0
         self._cv_cache: tuple[FloatArray, FloatArray] | None = None
+
+    @property
+    def n(self) -> int:
+        """Macro steps done."""
+        return self.grid.n
+
+    @property
+    def t(self) -> float:
+        """The current synchronisation time (s)."""
+        return self.grid.t
+
+    def advance(self) -> None:
+        """The macro step of the current ratio done: the clock moves on by m micro steps."""
+        self.grid.advance(self.m)
 
     # ------------------------------------------------------------------------------------
     def sum(self, values: list[float]) -> FloatArray:
@@ -354,8 +376,8 @@ class CoupledSystem:
             w = E.stack.apply(E.v_int)[:n_g] + I.interface_values(I.v)
             jump = float(np.max(np.abs(w), initial=0.0))
         return MacroRecord(
-            self.n,
-            self.n * self.dT,
+            self.grid.n,
+            self.grid.t,
             e,
             E.u if E is not None else None,
             E.v_int if E is not None else None,
@@ -368,6 +390,7 @@ class CoupledSystem:
             float(np.linalg.norm(self.impulse_E - self.impulse_I)),
             jump,
             implicit_rows=self._implicit_rows(),
+            micro_step=self.grid.i,
         )
 
     def _implicit_fields(self) -> Callable[[], tuple[FloatArray, FloatArray]] | None:
@@ -521,6 +544,7 @@ class CoupledSystem:
             tuple(a.copy() for a in arrays),
             dict(self.acc),
             (self.e_kin, self.e_int, self.i_kin, self.i_int),
+            self.grid.state_dict(),
         )
 
     def restore(self, snap: Snapshot) -> None:
@@ -531,12 +555,14 @@ class CoupledSystem:
         self.lam_macro_prev, self.impulse_E, self.impulse_I = (x.copy() for x in snap.arrays)
         self.acc = dict(snap.acc)
         self.e_kin, self.e_int, self.i_kin, self.i_int = snap.energies
+        self.grid.load_state_dict(snap.clock)
+        self._cv_cache = None
 
     def state_dict(self) -> dict[str, Any]:
         """Everything that changes while stepping, between macro steps (a checkpoint; local
         arrays of this rank, not collective): the books, the step count and both sides."""
         out: dict[str, Any] = {
-            "n": self.n,
+            "clock": self.grid.state_dict(),
             "acc": dict(self.acc),
             "lam_macro_prev": self.lam_macro_prev.copy(),
             "impulse_E": self.impulse_E.copy(),
@@ -552,7 +578,7 @@ class CoupledSystem:
     def load_state_dict(self, state: dict[str, Any]) -> None:
         """Set the state from :meth:`state_dict` of the same system on the same partition.
         The cached C V is dropped (recomputed from V as the same sums)."""
-        self.n = int(state["n"])
+        self.grid.load_state_dict(state["clock"])
         missing = set(self.acc) - set(state["acc"])
         if missing:
             raise ValueError(f"coupled system state: no energy terms {sorted(missing)}")
@@ -592,6 +618,7 @@ class CoupledSystem:
             float(state["impulse_defect"]),
             float(state["interface_velocity_jump"]),
             implicit_rows=self._implicit_rows(),
+            micro_step=int(state["micro_step"]),
         )
 
     def use_implicit(self, implicit: ImplicitSide, ratio: int) -> None:

@@ -102,6 +102,17 @@ class CraneGeometry:
         """Distance from a rail's axis to the outer face of its wheel's flanges (m)."""
         return 0.5 * self.rail_width + self.flange_clearance + self.flange_thickness
 
+    def part_at(self, x: float, y: float, z: float) -> str:
+        """The bridge part a point lies in (its peak stress's "part" in THEORY.md §8 (b)):
+        ``end carriage 1`` (y = 0) or ``2``, ``girder 1`` (x < 0) or ``2``, ``rail 1`` or
+        ``2`` above its girder's top."""
+        side = 1 if x < 0.0 else 2
+        if z < self.end_carriage_height:
+            return f"end carriage {1 if y < 0.5 * self.span else 2}"
+        if z > self.end_carriage_height + self.girder_height:
+            return f"rail {side}"
+        return f"girder {side}"
+
     def mirror_planes(self) -> list[tuple[int, float]]:
         """(axis, coordinate) of the planes of symmetry the mesh is mirrored in: x = 0 always
         (the girders and the trolley are centred on it), y = span/2 with the trolley there."""

@@ -321,6 +321,8 @@ class ExplicitZone:
         vh = np.zeros(n_loc)
         vh[:n_own] = v0
         n_c = c_dofs.size
+        #: The stacked and tangential impulses of the last micro step integrated.
+        self._last_impulses: tuple[FloatArray, FloatArray] | None = None
         self.state = kx.ZoneState(
             u=u,
             vh=vh,
@@ -443,7 +445,7 @@ class ExplicitZone:
             impulse_sum=np.zeros(n_g),
             impulses=np.zeros((n if ctl.keep_impulses else 0, n_g)),
             w=np.zeros(n_g),
-            flags=np.zeros(4, dtype=np.int64),
+            flags=np.zeros(5, dtype=np.int64),
             lam_t=np.zeros(self.zone.nt),
         )
         if ctl.mode == kx.SOLVED and op is None:
@@ -462,7 +464,25 @@ class ExplicitZone:
                 f"explicit zone: the frictional contact problem did not converge at contact "
                 f"point {point} of '{group}' (residual {res:.1e} of the impulse scale)"
             )
+        self._last_impulses = (out.lam, out.lam_t)
         return out
+
+    def slipping(self) -> npt.NDArray[np.bool_]:
+        """Per frictional contact point, whether it slid at the last micro step integrated:
+        closed, with its tangential impulse on the Coulomb cone's surface (‖Λ_t‖ = μ Λ_n to
+        round-off). Empty without friction. Not collective (this rank's impulses)."""
+        z = self.zone
+        if z.nt == 0 or self._last_impulses is None:
+            return np.zeros(0, dtype=bool)
+        lam, lam_t = self._last_impulses
+        pts = np.flatnonzero(z.t_count > 0)
+        lam_n = lam[self.n_gamma + pts]
+        # Each point's tangential rows are contiguous: ‖Λ_t‖² from a running sum of squares.
+        run = np.r_[0.0, np.cumsum(lam_t * lam_t)]
+        first = z.t_first[pts]
+        norm2 = run[first + z.t_count[pts]] - run[first]
+        cone = (1.0 - 1e-9) * z.mu[pts] * lam_n
+        return (lam_n > 0.0) & (norm2 >= cone * cone)
 
     def residual(self, t: float) -> FloatArray:
         """Out-of-balance force F(t) − K U of the current displacement (collective)."""

@@ -47,6 +47,7 @@ from crane_fem.kernels.mpi import allreduce_sum, halo_finish, halo_start
 from crane_fem.kernels.stiffness import free_rows, load_at, stiffness_velocity
 from crane_fem.kernels.zone import (
     CHANGED,
+    CLOSED,
     CONTACT,
     DAMP,
     EXT,
@@ -72,6 +73,7 @@ from crane_fem.kernels.zone import (
 
 __all__ = [
     "CHANGED",
+    "CLOSED",
     "CONTACT",
     "DAMP",
     "EXT",
@@ -280,10 +282,12 @@ def _micro(
         g_imp[jj, k] += lam_c[c]
         if gaps[n_g + c] < g_gap[jj, k]:
             g_gap[jj, k] = gaps[n_g + c]
-    if ctl.watch.size > 0 and out.flags[CHANGED] == 0:
+    if ctl.watch.size > 0 and out.flags[CLOSED] == 0:
         for c in range(pc):
             if closed[c] != ctl.watch[c]:
                 out.flags[CHANGED] = 1
+                if closed[c]:
+                    out.flags[CLOSED] = 1
     # Interface bookkeeping: L_E V_j = ½ (L V_{j−1/2} + L V_{j+1/2}), L V_{j+1/2} = q + W Λ.
     if n_g > 0:
         gc_w = 0.0

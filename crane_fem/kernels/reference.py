@@ -164,8 +164,10 @@ def run_steps(
         grp = np.arange(z.n_groups)[:, None] == z.c_group[None, :]
         out.group_impulse[jj] = grp @ lam[n_g:]
         out.group_gap[jj] = np.where(grp, gaps[None, n_g:], np.inf).min(axis=1, initial=np.inf)
-        if ctl.watch.size and not out.flags[kx.CHANGED] and np.any(closed != ctl.watch):
+        if ctl.watch.size and np.any(closed != ctl.watch):
             out.flags[kx.CHANGED] = 1
+            if np.any(closed & ~ctl.watch):
+                out.flags[kx.CLOSED] = 1
         if n_g:
             w = (L @ v_mid)[:n_g]
             lbar = 0.5 * (st.lam_prev + lam[:n_g])

@@ -12,6 +12,7 @@ import numpy.typing as npt
 
 __all__ = [
     "CHANGED",
+    "CLOSED",
     "CONTACT",
     "DAMP",
     "EXT",
@@ -45,8 +46,9 @@ NONE, SOLVED, IMPOSED = 0, 1, 2
 LAW_LCP, LAW_PENALTY, LAW_BILATERAL = 0, 1, 2
 #: Indices of :attr:`StepsOut.sums` (FRICTION: the work of the tangential impulses).
 EXT, DAMP, CONTACT, LINK, GC_WORK, PHYS_WORK, FRICTION = range(7)
-#: Indices of :attr:`StepsOut.flags`.
-CHANGED, MPI_ERROR, LCP_ERROR, FRICTION_ERROR = range(4)
+#: Indices of :attr:`StepsOut.flags` (CHANGED: a watched point changed state; CLOSED: a
+#: watched open point closed).
+CHANGED, MPI_ERROR, LCP_ERROR, FRICTION_ERROR, CLOSED = range(5)
 
 
 class Zone(NamedTuple):
@@ -198,8 +200,8 @@ class StepsOut(NamedTuple):
     sums (local: external, damping, contact and link work; global: the GC-measure and
     physical interface work), the interface impulses summed (trapezoid and plain), each
     micro step's (``keep_impulses``), L_E V at the last micro step, flags (contact set
-    changed, MPI error, singular LCP, friction problem not solved), and the last micro
-    step's tangential impulses (``lam_t``, n_t; empty without friction)."""
+    changed, MPI error, singular LCP, friction problem not solved, an open point closed),
+    and the last micro step's tangential impulses (``lam_t``, n_t; empty without friction)."""
 
     lam: FloatArray
     gaps: FloatArray

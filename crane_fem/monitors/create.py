@@ -44,10 +44,29 @@ class Monitors:
             m.update(rec, False)
 
     def sample(self, rec: MacroRecord, last: bool) -> None:
-        """Every record, in the loop's output time (they read whole fields, on their own
-        cadence): the measured points, the bridge stress, the support reactions."""
+        """The records of the sampling instants and the last, in the loop's output time (they
+        read whole fields; the stress and reactions every ``stress_every`` samples): the
+        measured points, the bridge stress, the support reactions."""
         for _, m in self._present(("points", "stress", "supports")):
             m.update(rec, last)
+
+    @property
+    def columns(self) -> list[str]:
+        """The history columns of the sampled monitors: the measured points' (with the
+        ground's acceleration), the support forces, the bridge's largest stress."""
+        sampled = (self.points, self.supports, self.stress)
+        return [c for m in sampled if m is not None for c in m.columns]
+
+    def history_row(self, t: float) -> dict[str, float]:
+        """Their values at the sampling instant ``t`` (after :meth:`sample`; not
+        collective)."""
+        row: dict[str, float] = {}
+        if self.points is not None:
+            row.update(self.points.history_row(t))
+        for m in (self.supports, self.stress):
+            if m is not None:
+                row.update(m.history_row())
+        return row
 
     def summarize(self, summary: dict[str, Any]) -> None:
         """Their entries in the summary; the slip joins the wheels' peaks."""

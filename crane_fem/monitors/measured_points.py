@@ -1,5 +1,5 @@
 """The measured points as a macro-step monitor: their absolute accelerations sampled every
-macro step for the history, and their response spectra written at the end."""
+sampling interval for the history, and their response spectra written at the end."""
 
 from __future__ import annotations
 
@@ -17,7 +17,7 @@ __all__ = ["MeasuredPoints", "create_measured_points"]
 
 
 class MeasuredPoints:
-    """:class:`PointMotions` sampled at every macro record (collective; a few rows of the
+    """:class:`PointMotions` sampled at every sampling instant (collective; a few rows of the
     implicit side); the last sample is the points' part of the next history row, and the
     spectra of all samples go to ``spectra.csv`` in ``out`` (rank 0 writes)."""
 
@@ -36,7 +36,7 @@ class MeasuredPoints:
 
     def update(self, rec: MacroRecord, last: bool) -> None:
         at = rec.implicit_at(self.motions.implicit_dofs)
-        self.row = self.motions.sample(rec.t, rec.explicit_v, at[1] if at is not None else None)
+        self.row = self.motions.sample(rec.t, rec.explicit_u, at[0] if at is not None else None)
 
     def summarize(self, summary: dict[str, Any]) -> None:
         """The spectra's settings (collective)."""

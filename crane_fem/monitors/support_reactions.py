@@ -17,33 +17,46 @@ __all__ = ["SupportsMonitor", "create_supports"]
 
 class SupportsMonitor:
     """:class:`SupportReactions` on the fields of the side that holds the clamped faces,
-    every ``output.stress_every`` macro steps (collective). Owns the reactions' PETSc
+    every ``output.stress_every`` sampling intervals (collective). Owns the reactions' PETSc
     matrices: :meth:`destroy` them."""
 
     def __init__(self, sim: Simulation, reactions: SupportReactions) -> None:
         md = sim.models
         self.reactions = reactions
         self.on_implicit = md.implicit is not None and reactions.subdomain == md.implicit.name
-        self.every = sim.scenario.output.stress_every
+        # Every ``stress_every`` sampling intervals, in micro steps.
+        self.every = sim.scenario.output.stress_every * md.sample_steps
         self.ground = GroundAcceleration(sim.scenario)
+        #: The forces of the last evaluation (n_faces, bs), N: the history's columns.
+        self.last = np.zeros((reactions.n_faces, reactions.bs))
+
+    @property
+    def columns(self) -> list[str]:
+        """The history columns: each face's force components (N), at the last evaluation."""
+        r = self.reactions
+        return [f"support{k + 1}_f{'xyz'[c]}" for k in range(r.n_faces) for c in range(r.bs)]
+
+    def history_row(self) -> dict[str, float]:
+        return dict(zip(self.columns, self.last.ravel().tolist(), strict=True))
 
     def update(self, rec: MacroRecord, last: bool) -> None:
         # The side's whole field (a reduced side expands it): sampled, not every step.
-        if rec.step % self.every != 0:
+        if rec.micro_step % self.every != 0:
             return
         u = rec.implicit_u if self.on_implicit else rec.explicit_u
         v = rec.implicit_v if self.on_implicit else rec.explicit_v
         assert u is not None and v is not None
-        self.reactions.update(rec.t, u, v, self.ground(rec.t))
+        self.last = self.reactions.update(rec.t, u, v, self.ground(rec.t))
 
     def summarize(self, summary: dict[str, Any]) -> None:
         summary["supports"] = self.reactions.table()
 
     def state_dict(self) -> dict[str, Any]:
-        return self.reactions.state_dict()
+        return {**self.reactions.state_dict(), "last": self.last.copy()}
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.reactions.load_state_dict(state)
+        self.last = np.array(state["last"], dtype=np.float64).reshape(self.last.shape)
 
     def destroy(self) -> None:
         self.reactions.destroy()

@@ -16,9 +16,10 @@ from crane_fem.coupling import (
     ExplicitAlone,
     ImplicitAlone,
     MacroStep,
+    MethodSetup,
     OperatorReport,
     create_interface_operator,
-    method_class,
+    create_method,
 )
 from crane_fem.coupling.interface import zone_labels
 from crane_fem.coupling.system import ImplicitSide
@@ -32,8 +33,9 @@ from crane_fem.pipeline.loads import body_load, initial_state
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.pipeline.models import ModelStage
 from crane_fem.reduction import create_craig_bampton
-from crane_fem.scenario import HYBRID_KEYS, Scenario
+from crane_fem.scenario import HYBRID_KEYS, SOLVED_INTERFACE_METHODS, Scenario
 from crane_fem.subdomains import Subdomain
+from crane_fem.timegrid import TimeGrid
 
 __all__ = ["IntegratorStage", "build_integrators"]
 
@@ -67,6 +69,16 @@ class IntegratorStage:
             self.explicit.destroy()
         if self.implicit is not None:
             self.implicit.destroy()
+
+
+def _static_forces(models: ModelStage, cons: ConstraintStage) -> FloatArray | None:
+    """Each contact group's static force (N): the preload's wheel forces, zero on the groups
+    after the wheels (flanges); None without a preload."""
+    if models.preload is None:
+        return None
+    static = np.zeros(len(cons.contacts.group_names))
+    static[: models.preload.wheel_force.size] = models.preload.wheel_force
+    return static
 
 
 def _interface_force0(comm: MPI.Comm, E: ExplicitZone) -> FloatArray:
@@ -212,28 +224,35 @@ def build_integrators(
                 cons.l_implicit if coupled else None,
                 consistent_mass=nm.mass == "consistent",
             )
-    system = CoupledSystem(E, I, models.ratio, models.dt)
+    grid = TimeGrid(models.dt, models.end_steps, models.sample_steps)
+    system = CoupledSystem(E, I, models.ratio, models.dt, grid)
     method: MacroStep
     report = None
     if coupled:
         assert E is not None and I is not None
-        cls = method_class(models.method)
-        kwargs: dict[str, Any] = {}
-        if models.method in ("gc", "gc-mean", "hybrid"):
-            factory = _OperatorFactory(sc, models, cons)
-            kwargs["operator"] = factory(E, I, models.ratio)
-            report = factory.report
-            if models.method == "hybrid":
-                dt = models.dt
-                kwargs["refined_operator"] = lambda side: factory(E, side, round(side.dT / dt))
         cpl = sc.coupling
-        if models.method == "hybrid" and cpl is not None:
-            kwargs.update({k: getattr(cpl, k) for k in HYBRID_KEYS if getattr(cpl, k) is not None})
-        method = cls(system, **kwargs)
+        assert cpl is not None
+        factory = None
+        if models.method in SOLVED_INTERFACE_METHODS:
+            factory = _OperatorFactory(sc, models, cons)
+            zone = E
+
+            def operator(side: ImplicitSide, ratio: int) -> InterfaceOp:
+                assert factory is not None
+                return factory(zone, side, ratio)
+
+        keys = HYBRID_KEYS if models.method == "hybrid" else ("refine_quiet", "refine_margin")
+        setup = MethodSetup(
+            operator if factory is not None else None,
+            {k: getattr(cpl, k) for k in keys if getattr(cpl, k) is not None},
+            _static_forces(models, cons),
+        )
+        method = create_method(models.method, system, setup, cpl.fine_ratio)
+        report = factory.report if factory is not None else None
     else:
-        stride = sc.coupling.ratio if sc.coupling is not None else 1
+        # The monolithic reference records once per sampling interval.
         alone = ExplicitAlone if E is not None else ImplicitAlone
-        method = alone(system, stride, models.n_steps)
+        method = alone(system, models.sample_steps)
     force0 = None
     if coupled and models.preload is not None:
         assert E is not None

@@ -28,7 +28,11 @@ class ModelStage:
         explicit_names, implicit_names: their ``[[subdomain]]`` names.
         preload: the crane's static self-weight state, or None.
         dt, dT: micro and macro steps (s); dt_critical: the explicit side's critical step.
-        n_steps: steps of Δt to the end time; n_macro: macro steps.
+        n_steps: steps of Δt to the end time; n_macro: macro steps (coarse ones for a
+            refining macro step).
+        end_steps: micro steps of the run (n_macro × ratio coupled, n_steps monolithic);
+        sample_steps: micro steps per sampling interval (a multiple of the macro step, the
+            monolithic run's record stride).
     """
 
     method: str
@@ -43,6 +47,8 @@ class ModelStage:
     dT: float
     n_steps: int
     n_macro: int
+    end_steps: int = 0
+    sample_steps: int = 1
 
     @property
     def coupled(self) -> bool:
@@ -86,6 +92,20 @@ def _time_steps(sc: Scenario, explicit: Subdomain | None, dt_critical: float) ->
             f"of explicit subdomain '{explicit.name}'"
         )
     return sc.time.dt_factor * dt_critical
+
+
+def sample_steps(sc: Scenario, dt: float, unit: int) -> int:
+    """Micro steps per sampling interval: ``output.sample_interval`` rounded to a whole number
+    of ``unit`` (the macro step's micro steps, whose ends are the only times a coupled run
+    holds both sides' state), at least one; ``unit`` when the key is unset."""
+    delta = sc.output.sample_interval
+    if delta is None:
+        return unit
+    if delta < dt:
+        raise ScenarioError(
+            f"output.sample_interval = {delta:g} s is below the time step Δt = {dt:.4e} s"
+        )
+    return unit * max(1, round(delta / (unit * dt)))
 
 
 def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
@@ -152,12 +172,16 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
     if coupled:
         dT = dt * ratio
         n_macro = max(1, math.ceil(sc.time.end / dT - 1e-9))
+        end = n_macro * ratio
+        sample = sample_steps(sc, dt, ratio)
     else:
-        # A monolithic reference steps as the coupled run records: `ratio` steps of Δt per
-        # macro step (the two histories share one time grid).
+        # A monolithic reference records at the coupled run's sampling instants: one macro
+        # step per sampling interval (the two histories share one time grid).
         dT = dt
-        stride = sc.coupling.ratio if sc.coupling is not None else 1
-        n_macro = math.ceil(n_steps / stride)
+        unit = sc.coupling.ratio if sc.coupling is not None else 1
+        sample = sample_steps(sc, dt, unit)
+        n_macro = math.ceil(n_steps / sample)
+        end = n_steps
     return ModelStage(
         method,
         ratio,
@@ -171,4 +195,6 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
         dT,
         n_steps,
         n_macro,
+        end,
+        sample,
     )

@@ -10,6 +10,8 @@ from pydantic import Field, model_validator
 from crane_fem.scenario.base import PositiveFloat, PositiveInt, Section
 
 __all__ = [
+    "ADAPTIVE_KEYS",
+    "ADAPTIVE_METHODS",
     "COUPLED_METHODS",
     "HYBRID_KEYS",
     "OPERATOR_KEYS",
@@ -28,6 +30,10 @@ HYBRID_KEYS = ("impact_ratio", "interface_tolerance")
 #: The methods that solve the interface rows every micro step, and their operator keys.
 SOLVED_INTERFACE_METHODS = ("gc", "gc-mean", "hybrid")
 OPERATOR_KEYS = ("interface_blocks", "interface_precision", "interface_truncation")
+#: The methods whose macro step can refine at impacts (``fine_ratio``), and the keys that
+#: tune the refinement (crane_fem.coupling.adaptive).
+ADAPTIVE_METHODS = ("gc", "gc-mean")
+ADAPTIVE_KEYS = ("fine_ratio", "refine_quiet", "refine_margin")
 
 
 class SubdomainSpec(Section):
@@ -96,6 +102,17 @@ class Coupling(Section):
     #: gc, gc-mean, hybrid: drop the interface modes with 2mγ s ≤ this (0 keeps every mode:
     #: exact); each dropped mode's impulse is off by at most this fraction.
     interface_truncation: Annotated[float, Field(ge=0.0, lt=1.0)] | None = None
+    #: gc, gc-mean: the macro step refines at impacts (docs/theory-notes.md §13): ``ratio``
+    #: micro steps per macro step in flight and in steady contact, ``fine_ratio`` (a divisor
+    #: of ``ratio``) from a coarse step before a contact closes until ``refine_quiet``
+    #: seconds after the last impact, flange strike or contact change. Unset: a fixed ratio.
+    fine_ratio: PositiveInt | None = None
+    #: s: how long the contacts stay calm before the macro step coarsens again (default
+    #: crane_fem.coupling.adaptive.QUIET_TIME).
+    refine_quiet: PositiveFloat | None = None
+    #: m: a contact predicted (gap + gap rate × the coarse ΔT) to come nearer than this
+    #: refines the next coarse step (default crane_fem.coupling.adaptive.GAP_MARGIN).
+    refine_margin: Annotated[float, Field(ge=0.0)] | None = None
 
     @property
     def monolithic_scheme(self) -> str:

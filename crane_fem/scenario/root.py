@@ -13,6 +13,8 @@ from pydantic import Field, model_validator
 from crane_fem.errors import ScenarioError
 from crane_fem.scenario.base import Section
 from crane_fem.scenario.coupling import (
+    ADAPTIVE_KEYS,
+    ADAPTIVE_METHODS,
     HYBRID_KEYS,
     OPERATOR_KEYS,
     SOLVED_INTERFACE_METHODS,
@@ -178,6 +180,25 @@ class Scenario(Section):
             for key in HYBRID_KEYS:
                 if getattr(cpl, key) is not None:
                     raise ValueError(f"coupling.{key} applies to method 'hybrid' only")
+        if cpl is not None and cpl.method not in (*ADAPTIVE_METHODS, "monolithic"):
+            for key in ADAPTIVE_KEYS:
+                if getattr(cpl, key) is not None:
+                    raise ValueError(
+                        f"coupling.{key} applies to methods {', '.join(ADAPTIVE_METHODS)} only "
+                        "(a macro step that refines at impacts)"
+                    )
+        if cpl is not None and cpl.fine_ratio is not None:
+            if cpl.fine_ratio >= cpl.ratio or cpl.ratio % cpl.fine_ratio:
+                raise ValueError(
+                    f"coupling.fine_ratio = {cpl.fine_ratio} must be smaller than coupling.ratio "
+                    f"= {cpl.ratio} and divide it (the fine macro steps tile a coarse one)"
+                )
+        if cpl is None or cpl.fine_ratio is None:
+            for key in ("refine_quiet", "refine_margin"):
+                if cpl is not None and getattr(cpl, key) is not None:
+                    raise ValueError(
+                        f"coupling.{key} tunes a refining macro step: it needs coupling.fine_ratio"
+                    )
         if cpl is not None and cpl.impact_ratio is not None:
             if cpl.ratio % cpl.impact_ratio:
                 raise ValueError(
@@ -240,6 +261,11 @@ class Scenario(Section):
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
+        if self.output.sample_interval is not None and not self.coupled_path:
+            raise ValueError(
+                "output.sample_interval: scenes with [[subdomain]] or [coupling] only (a 1D "
+                "bar writes every output.every steps)"
+            )
         if self.output.checkpoint_every is not None and not self.coupled_path:
             raise ValueError(
                 "output.checkpoint_every: checkpoints are written by scenes with [[subdomain]] "

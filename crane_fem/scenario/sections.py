@@ -176,15 +176,21 @@ class Integrator(Section):
 
 
 class Output(Section):
-    """What is written and how often."""
+    """What is written and how often. The run is sampled on one physical interval,
+    ``sample_interval`` (s; default the macro step ΔT = ratio × Δt, rounded to a whole number
+    of macro steps), the same instants in every method: history rows every ``every``
+    samples, XDMF frames every ``xdmf_every``, the bridge's stress and the support reactions
+    every ``stress_every``, the measured points at every sample."""
 
+    sample_interval: PositiveFloat | None = None
     every: PositiveInt = 1
     xdmf: bool = True
     xdmf_every: PositiveInt | None = None
-    #: Crane: the bridge's peak von Mises stress is evaluated every this many macro steps.
+    #: Crane: the bridge's peak von Mises stress and the support reactions are evaluated
+    #: every this many samples.
     stress_every: PositiveInt = 1
     progress: bool | Literal["auto"] = "auto"
-    #: Write the full state every this many macro steps (``crane-fem run --restart OUTDIR``
+    #: Write the full state every this many samples (``crane-fem run --restart OUTDIR``
     #: continues from the latest one); scenes with subdomains only.
     checkpoint_every: PositiveInt | None = None
 

@@ -1,0 +1,228 @@
+"""Criterion (b) of THEORY.md §8: a crane run's engineering quantities against the fully
+explicit run of the same scene, each with its engineering tolerance.
+
+Per wheel: the largest uplift (10 %, or 0.1 mm), the longest flight (5 %), the first
+landing's impulse (5 %) and peak force (10 %), the run's peak force (10 %), the slip along
+and across its rail (10 %, or 0.5 mm); per flange its peak force (15 %); the bridge's peak
+von Mises stress (5 %) and, in the part where the reference peaks, the run's own peak there
+(5 %: the same part, ties between mirror-symmetric parts allowed); each support's peak force
+and peak vertical force (10 %); the floor response spectra at the measured points (10 % at
+every period computed: they start at 4 sampling intervals). Lift-off counts are reported, not
+bounded (short chatter flights differ by ±3 between explicit runs of ±0.5 % of record).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "TOLERANCES",
+    "Check",
+    "judge_dirs",
+    "judge_runs",
+    "lift_off_counts",
+    "table_lines",
+    "worst",
+]
+
+#: quantity -> (relative tolerance, absolute floor in the quantity's SI unit).
+TOLERANCES: dict[str, tuple[float, float]] = {
+    "max uplift": (0.10, 1e-4),
+    "longest flight": (0.05, 0.0),
+    "first landing impulse": (0.05, 0.0),
+    "first landing peak force": (0.10, 0.0),
+    "peak force": (0.10, 0.0),
+    "slip along": (0.10, 5e-4),
+    "slip across": (0.10, 5e-4),
+    "flange peak force": (0.15, 0.0),
+    "bridge peak von Mises": (0.05, 0.0),
+    "bridge peak von Mises in the reference's part": (0.05, 0.0),
+    "support peak force": (0.10, 0.0),
+    "support peak vertical force": (0.10, 0.0),
+    "floor response spectrum": (0.10, 0.0),
+}
+
+
+@dataclass(frozen=True)
+class Check:
+    """One quantity of a run against the reference's, with its tolerance (SI units)."""
+
+    quantity: str
+    where: str
+    value: float
+    reference: float
+    unit: str
+
+    @property
+    def tolerance(self) -> float:
+        """The allowed |value − reference|."""
+        rel, floor = TOLERANCES[self.quantity]
+        return max(rel * abs(self.reference), floor)
+
+    @property
+    def ratio(self) -> float:
+        """|value − reference| / tolerance (0 when equal; inf against a zero tolerance)."""
+        dev = abs(self.value - self.reference)
+        if dev == 0.0:
+            return 0.0
+        tol = self.tolerance
+        return dev / tol if tol > 0.0 else math.inf
+
+    @property
+    def ok(self) -> bool:
+        return self.ratio <= 1.0
+
+    @property
+    def rule(self) -> str:
+        rel, floor = TOLERANCES[self.quantity]
+        text = f"{100 * rel:g} %"
+        if floor > 0.0:
+            text += f" (or {1e3 * floor:g} mm)"
+        return text
+
+
+def _longest_flight(wheel: dict[str, Any]) -> float:
+    spans = [b - a for a, b in wheel.get("lift_offs", {}).get("intervals", [])]
+    return max(spans, default=0.0)
+
+
+def _first_impact(wheel: dict[str, Any]) -> dict[str, float]:
+    impacts = wheel.get("impacts", [])
+    return impacts[0] if impacts else {"impulse_Ns": 0.0, "peak_force_N": 0.0}
+
+
+def judge_runs(
+    run: dict[str, Any],
+    ref: dict[str, Any],
+    run_spectra: tuple[Any, dict[str, Any]] | None = None,
+    ref_spectra: tuple[Any, dict[str, Any]] | None = None,
+) -> list[Check]:
+    """The checks of criterion (b) of the run with summary ``run`` against the reference's
+    ``ref`` (the fully explicit run of the same scene), and of their response spectra
+    ((periods, name -> PSA) of ``spectra.csv``) when given. Quantities the reference lacks
+    are left out."""
+    checks: list[Check] = []
+
+    def add(q: str, where: str, value: float, reference: float, unit: str) -> None:
+        checks.append(Check(q, where, float(value), float(reference), unit))
+
+    wheels, ref_wheels = run.get("wheels", {}), ref.get("wheels", {})
+    for k, rw in sorted(ref_wheels.items()):
+        w = wheels.get(k, {})
+        where = f"wheel {k}"
+        add("max uplift", where, w.get("max_uplift_m", 0.0), rw["max_uplift_m"], "m")
+        add("longest flight", where, _longest_flight(w), _longest_flight(rw), "s")
+        fi, rfi = _first_impact(w), _first_impact(rw)
+        add("first landing impulse", where, fi["impulse_Ns"], rfi["impulse_Ns"], "N s")
+        add("first landing peak force", where, fi["peak_force_N"], rfi["peak_force_N"], "N")
+        add("peak force", where, w.get("peak_force_N", 0.0), rw["peak_force_N"], "N")
+        for d in ("along", "across"):
+            key = f"max_slip_{d}_m"
+            if key in rw:
+                add(f"slip {d}", where, w.get(key, 0.0), rw[key], "m")
+    flanges = run.get("flanges", {})
+    for name, rf in sorted(ref.get("flanges", {}).items()):
+        value = flanges.get(name, {}).get("peak_force_N", 0.0)
+        add("flange peak force", f"flange {name}", value, rf["peak_force_N"], "N")
+    if "peak_bridge_von_mises_Pa" in ref:
+        value = run.get("peak_bridge_von_mises_Pa", 0.0)
+        add("bridge peak von Mises", "bridge", value, ref["peak_bridge_von_mises_Pa"], "Pa")
+        part = ref.get("peak_bridge_von_mises_part")
+        if part:
+            there = run.get("peak_bridge_von_mises_by_part_Pa", {}).get(part, 0.0)
+            q = "bridge peak von Mises in the reference's part"
+            add(q, part, there, ref["peak_bridge_von_mises_Pa"], "Pa")
+    supports = run.get("supports", {})
+    for k, rs in sorted(ref.get("supports", {}).items()):
+        s = supports.get(k, {})
+        where = f"support {k}"
+        add("support peak force", where, s.get("peak_force_N", 0.0), rs["peak_force_N"], "N")
+        value = s.get("peak_vertical_N", 0.0)
+        add("support peak vertical force", where, value, rs["peak_vertical_N"], "N")
+    if run_spectra is not None and ref_spectra is not None:
+        checks += _spectra_checks(run_spectra, ref_spectra)
+    return checks
+
+
+def _spectra_checks(
+    run: tuple[Any, dict[str, Any]], ref: tuple[Any, dict[str, Any]]
+) -> list[Check]:
+    """Per measured point and direction, the period where the run's spectrum is furthest
+    from the reference's relative to it (the input's curves, the same in both, left out)."""
+    periods, curves = run
+    ref_periods, ref_curves = ref
+    out: list[Check] = []
+    if len(periods) != len(ref_periods) or not np.allclose(periods, ref_periods, rtol=1e-9):
+        raise ValueError("the two runs' spectra are at different periods (another sampling?)")
+    for name, rc in sorted(ref_curves.items()):
+        if name.startswith("input_") or name not in curves:
+            continue
+        a, b = np.asarray(curves[name]), np.asarray(rc)
+        rel = np.abs(a - b) / np.maximum(np.abs(b), 1e-300)
+        j = int(np.argmax(rel))
+        label = f"{name.replace('_', ' ')} at T = {periods[j]:.3g} s"
+        out.append(Check("floor response spectrum", label, float(a[j]), float(b[j]), "m/s²"))
+    return out
+
+
+def lift_off_counts(run: dict[str, Any], ref: dict[str, Any]) -> dict[str, tuple[int, int]]:
+    """Per wheel (run, reference) lift-off counts: reported, not bounded."""
+    return {
+        f"wheel {k}": (
+            int(run.get("wheels", {}).get(k, {}).get("lift_offs", {}).get("count", 0)),
+            int(rw["lift_offs"]["count"]),
+        )
+        for k, rw in sorted(ref.get("wheels", {}).items())
+    }
+
+
+def worst(checks: list[Check]) -> Check | None:
+    """The check with the largest ratio (None for none)."""
+    return max(checks, key=lambda c: c.ratio, default=None)
+
+
+def judge_dirs(run: Path, ref: Path) -> list[Check]:
+    """:func:`judge_runs` of two output directories (their ``summary.json`` and, where both
+    have one, ``spectra.csv``)."""
+    import json
+
+    from crane_fem.spectra import read_spectra_csv
+
+    summaries = [json.loads((d / "summary.json").read_text()) for d in (run, ref)]
+    spectra = [d / "spectra.csv" for d in (run, ref)]
+    if all(p.exists() for p in spectra):
+        sr, se = (read_spectra_csv(p) for p in spectra)
+        return judge_runs(summaries[0], summaries[1], sr, se)
+    return judge_runs(summaries[0], summaries[1])
+
+
+def _fmt(value: float, unit: str) -> str:
+    scale = {"N": (1e-3, "kN"), "Pa": (1e-6, "MPa"), "m": (1e3, "mm"), "s": (1e3, "ms")}
+    f, u = scale.get(unit, (1.0, unit))
+    return f"{f * value:.4g} {u}"
+
+
+def table_lines(checks: list[Check]) -> list[str]:
+    """The checks as a Markdown table (quantity, where, run, reference, error, tolerance,
+    ratio, within)."""
+    lines = [
+        "| quantity | where | run | explicit | error | tolerance | error / tolerance | ok |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for c in checks:
+        err = (
+            f"{100 * (c.value - c.reference) / abs(c.reference):+.1f} %"
+            if c.reference
+            else _fmt(c.value - c.reference, c.unit)
+        )
+        lines.append(
+            f"| {c.quantity} | {c.where} | {_fmt(c.value, c.unit)} | "
+            f"{_fmt(c.reference, c.unit)} | {err} | {c.rule} | {c.ratio:.2f} | "
+            f"{'yes' if c.ok else '**no**'} |"
+        )
+    return lines
