@@ -265,5 +265,16 @@ def test_interface_operator_forms() -> None:
         sq = np.sqrt(d)
         err = sq[:, None] * (twin.operator_matrix(op, k) - exact) * sq[None, :]
         assert np.linalg.norm(err, 2) <= eps
+    # The form for k = m only (gc-mean): each block A_m⁻¹ itself, one product per solve.
+    exact = np.linalg.inv(np.diag(d) + 2 * m * gamma * W)
+    for form, tol in (({"blocks": blocks}, 1e-12), ({"single": True}, 1e-6)):
+        op, report = create_interface_operator(d, W, gamma, m, fixed=True, **form)
+        A = twin.operator_matrix(op, m)
+        assert np.max(np.abs(A - exact)) <= tol * np.max(np.abs(exact))
+        x = rng.standard_normal(n)
+        y = np.zeros(n)
+        kx.apply_operator(op, float(m), x, y)
+        assert np.max(np.abs(y - A @ x)) <= 1e-12 * np.max(np.abs(A @ x))
+    assert report.work == n * n  # one block of n rows (no labels): n² multiply-adds
     with pytest.raises(ValueError, match="truncation"):
         create_interface_operator(d, W, gamma, m, truncation=1.0)

@@ -93,4 +93,4 @@ class GCMean(MethodBase):
 
 def create(system: CoupledSystem, setup: MethodSetup) -> GCMean:
     """gc-mean on the system's implicit side and ratio."""
-    return GCMean(system, setup.operator_for(system))
+    return GCMean(system, setup.operator_for(system, fixed=True))

@@ -139,6 +139,6 @@ def create(system: CoupledSystem, setup: MethodSetup) -> Hybrid:
     return Hybrid(
         system,
         setup.operator_for(system),
-        lambda side: op(side, round(side.dT / dt)),
+        lambda side: op(side, round(side.dT / dt), False),
         **setup.options,
     )

@@ -56,6 +56,7 @@ def create_interface_operator(
     blocks: IntArray | None = None,
     truncation: float = 0.0,
     single: bool = False,
+    fixed: bool = False,
 ) -> tuple[InterfaceOp, OperatorReport]:
     """Diagonalise A_k once, block by block (not collective: every rank holds the inputs).
 
@@ -67,6 +68,8 @@ def create_interface_operator(
         blocks: a block label per interface row, or None for one block.
         truncation: ε ≥ 0 (0 keeps every mode).
         single: store Q in single precision.
+        fixed: the operator serves k = m only (gc-mean): each block stored as A_m⁻¹ itself,
+            one product per solve instead of two (without truncation, which it makes moot).
     """
     n_g = w_gamma.size
     if not 0.0 <= truncation < 1.0:
@@ -84,6 +87,13 @@ def create_interface_operator(
         ds = dis[rows]
         S = ds[:, None] * W_I[np.ix_(rows, rows)] * ds[None, :]
         s, Q = np.linalg.eigh(0.5 * (S + S.T))
+        if fixed:
+            f = 1.0 / (1.0 + 2.0 * m * gamma * s)
+            B = ds[:, None] * ((Q * f) @ Q.T) * ds[None, :]
+            Qs.append(np.ascontiguousarray(0.5 * (B + B.T)).ravel())
+            ss.append(np.zeros(0))
+            ranks.append(rows.size)
+            continue
         keep = 2.0 * m * gamma * s > truncation if truncation > 0.0 else np.ones(s.size, bool)
         Q, s = Q[:, keep], s[keep]
         Qs.append(np.ascontiguousarray(Q).ravel())
@@ -105,15 +115,16 @@ def create_interface_operator(
         rank=np.asarray(ranks, dtype=np.int64),
         s=np.concatenate(ss) if ss else np.zeros(0),
         sptr=sptr,
-        lowrank=truncation > 0.0,
+        lowrank=truncation > 0.0 and not fixed,
         single=single,
+        k_fixed=float(m) if fixed else 0.0,
     )
     scale = float(np.max(np.abs(W_I), initial=0.0))
     report = OperatorReport(
         blocks=int(uniq.size),
         modes_kept=int(sum(ranks)),
         modes=n_g,
-        work=int(2 * sum(r * (ptr[b + 1] - ptr[b]) for b, r in enumerate(ranks))),
+        work=int((1 if fixed else 2) * sum(r * (ptr[b + 1] - ptr[b]) for b, r in enumerate(ranks))),
         work_one_block=2 * n_g * n_g,
         dropped_coupling=float(np.max(np.abs(outside), initial=0.0)) / scale if scale else 0.0,
         precision="single" if single else "double",

@@ -28,15 +28,16 @@ class MethodSetup:
     every micro step), the method's own ``[coupling]`` keys that the scenario sets, and each
     contact group's static force (N; the preload's, or None)."""
 
-    operator: Callable[[ImplicitSide, int], InterfaceOp] | None = None
+    operator: Callable[[ImplicitSide, int, bool], InterfaceOp] | None = None
     options: dict[str, Any] = field(default_factory=dict)
     static: npt.NDArray[np.float64] | None = None
 
-    def operator_for(self, system: CoupledSystem) -> InterfaceOp:
-        """The operator of the system's current implicit side and ratio."""
+    def operator_for(self, system: CoupledSystem, fixed: bool = False) -> InterfaceOp:
+        """The operator of the system's current implicit side and ratio (``fixed``: for
+        k = m only, as gc-mean uses it)."""
         if self.operator is None or system.I is None:
             raise ValueError("this coupling method needs the interface operator")
-        return self.operator(system.I, system.m)
+        return self.operator(system.I, system.m, fixed)
 
 
 class MacroStep(Protocol):

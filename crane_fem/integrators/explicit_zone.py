@@ -450,6 +450,9 @@ class ExplicitZone:
         )
         if ctl.mode == kx.SOLVED and op is None:
             raise ValueError("solved interface rows need an interface operator")
+        if ctl.mode == kx.SOLVED and op is not None and op.k_fixed > 0.0:
+            if np.any(ctl.k_op != op.k_fixed):
+                raise ValueError(f"the interface operator serves k = {op.k_fixed:g} only")
         kx.run_steps(self.zone, op if op is not None else self._no_op, self.state, ctl, out)
         if out.flags[kx.MPI_ERROR]:
             raise CraneFemError("explicit zone: an MPI call of the kernel failed")

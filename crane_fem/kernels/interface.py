@@ -44,9 +44,39 @@ def _block_product(
     return z
 
 
+@numba.njit(cache=True, fastmath=True)
+def _dense_product(B: npt.NDArray[np.floating], y: FloatArray) -> FloatArray:
+    """B y for one block, B (n_b × n_b) row-major read once (row dot products, vectorised;
+    sums in double precision whatever B's)."""
+    n_b = B.shape[0]
+    z = np.empty(n_b)
+    for i in range(n_b):
+        t = 0.0
+        for j in range(n_b):
+            t += B[i, j] * y[j]
+        z[i] = t
+    return z
+
+
 @numba.njit(cache=True)
 def apply_operator(op: InterfaceOp, k: float, x: FloatArray, out: FloatArray) -> None:
-    """``out = A_k⁻¹ x`` (not collective: every rank holds the operator and x)."""
+    """``out = A_k⁻¹ x`` (not collective: every rank holds the operator and x). An operator
+    built for one k (``k_fixed``) ignores ``k``: the caller checks it."""
+    if op.k_fixed > 0.0:
+        for b in range(op.ptr.size - 1):
+            a0, a1 = op.ptr[b], op.ptr[b + 1]
+            n_b = a1 - a0
+            y = np.empty(n_b)
+            for i in range(n_b):
+                y[i] = x[op.idx[a0 + i]]
+            q0 = op.qptr[b]
+            if op.single:
+                zb = _dense_product(op.Q32[q0 : q0 + n_b * n_b].reshape((n_b, n_b)), y)
+            else:
+                zb = _dense_product(op.Q[q0 : q0 + n_b * n_b].reshape((n_b, n_b)), y)
+            for i in range(n_b):
+                out[op.idx[a0 + i]] = zb[i]
+        return
     for b in range(op.ptr.size - 1):
         a0, a1 = op.ptr[b], op.ptr[b + 1]
         n_b = a1 - a0

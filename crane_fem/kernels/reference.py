@@ -32,6 +32,9 @@ def operator_matrix(op: kx.InterfaceOp, k: float) -> FloatArray:
         rows = op.idx[a0:a1]
         r = int(op.rank[b])
         Q = Qall[op.qptr[b] : op.qptr[b] + (a1 - a0) * r].reshape(a1 - a0, r)
+        if op.k_fixed > 0.0:  # the block is A_k⁻¹ itself
+            out[np.ix_(rows, rows)] = Q
+            continue
         s = op.s[op.sptr[b] : op.sptr[b + 1]]
         f = 1.0 / (1.0 + 2.0 * k * op.gamma * s)
         inner = np.eye(a1 - a0) + (Q * (f - 1.0)) @ Q.T if op.lowrank else (Q * f) @ Q.T

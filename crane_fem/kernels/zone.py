@@ -154,7 +154,9 @@ class InterfaceOp(NamedTuple):
     """The micro-step interface operator A_k = W_E,ΓΓ + 2kγ W_I, inverted through blocks
     ``b`` of rows ``idx[ptr[b]:ptr[b+1]]``: A_k⁻¹ = D^-½ Q_b diag(1/(1 + 2kγ s_b)) Q_bᵀ D^-½,
     or with ``lowrank``, D^-½ (I + Q_b diag(1/(1 + 2kγ s_b) − 1) Q_bᵀ) D^-½ with the modes of
-    negligible s dropped (crane_fem.coupling.operator)."""
+    negligible s dropped (crane_fem.coupling.operator). With ``k_fixed`` > 0 the operator
+    serves that k only and each block of ``Q`` (``Q32``) is A_k⁻¹ itself, n_b × n_b with
+    D^-½ folded in: one product instead of two (gc-mean's, whose k is the ratio)."""
 
     gamma: float
     idx: IntArray
@@ -168,6 +170,7 @@ class InterfaceOp(NamedTuple):
     sptr: IntArray
     lowrank: bool
     single: bool
+    k_fixed: float = 0.0
 
 
 class Steps(NamedTuple):

@@ -113,7 +113,9 @@ class _OperatorFactory:
         self.single = cpl is not None and cpl.interface_precision == "single"
         self.report: OperatorReport | None = None
 
-    def __call__(self, E: ExplicitZone, implicit: ImplicitSide, ratio: int) -> InterfaceOp:
+    def __call__(
+        self, E: ExplicitZone, implicit: ImplicitSide, ratio: int, fixed: bool = False
+    ) -> InterfaceOp:
         op, report = create_interface_operator(
             E.zone.w_gamma,
             implicit.W,
@@ -122,6 +124,7 @@ class _OperatorFactory:
             self.blocks,
             self.truncation,
             self.single,
+            fixed,
         )
         self.report = self.report or report
         return op
@@ -237,9 +240,9 @@ def build_integrators(
             factory = _OperatorFactory(sc, models, cons)
             zone = E
 
-            def operator(side: ImplicitSide, ratio: int) -> InterfaceOp:
+            def operator(side: ImplicitSide, ratio: int, fixed: bool) -> InterfaceOp:
                 assert factory is not None
-                return factory(zone, side, ratio)
+                return factory(zone, side, ratio, fixed)
 
         keys = HYBRID_KEYS if models.method == "hybrid" else ("refine_quiet", "refine_margin")
         setup = MethodSetup(
