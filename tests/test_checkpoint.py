@@ -216,6 +216,33 @@ def test_restart_after_an_interruption_within_a_macro_step(shared_tmp, monkeypat
 
 
 @pytest.mark.parametrize("reduced", [False, True], ids=["full", "reduced"])
+@pytest.mark.parametrize("method", ["gc", "gc-mean"])
+def test_restart_of_the_refining_step_through_impacts(method, reduced, shared_tmp) -> None:
+    """The macro step that refines at impacts (coupling.fine_ratio) on the bar hitting the
+    wall, continued from a checkpoint taken while it runs fine (after the impact's onset,
+    within the quiet time): the continued run takes the same rungs and ends as the
+    uninterrupted one, bit for bit serially."""
+
+    def sc(end: float, every: int | None = None) -> Scenario:
+        return make_scenario(
+            model={"elements": 200, "split": 0.4},
+            time={"end": end, "dt_factor": 0.9},
+            subdomain=_subdomains(reduced),
+            coupling={"method": method, "ratio": 8, "fine_ratio": 2, "refine_quiet": 0.1},
+            output={"xdmf": False, "checkpoint_every": every},
+        )
+
+    # Δt = 4.5e-3, coarse ΔT = 0.036: the impact at t = 0.1 s is in the third coarse
+    # interval, refined from there for 0.1 s; the checkpoint every 4 samples (0.144 s) of
+    # the cut run (to 0.16 s) falls inside the fine stretch.
+    ref, res = _check_restart(sc(0.5), sc(0.16, 4), sc(0.5, 4), shared_tmp)
+    assert res.summary["restart"]["step"] > 4  # fine steps before the checkpoint
+    ad = ref.summary["adaptive"]
+    assert ad["fine_steps"] > 0 and ad["coarse_steps"] > 0, ad
+    assert res.summary["adaptive"] == ad
+
+
+@pytest.mark.parametrize("reduced", [False, True], ids=["full", "reduced"])
 def test_restart_of_the_hybrid_through_impacts(reduced, shared_tmp) -> None:
     """ "hybrid" on the bar hitting the wall (its "ec" steps while the contact is open, GC and
     refined GC steps through the impact), continued from a checkpoint before the impact: the

@@ -96,6 +96,18 @@ def _cases(tmp: Path) -> dict[str, tuple[list[str], list[str]]]:
             ["coupling.method", "'gc-mean' or 'monolithic' (got 'zz')"],
         ),
         "no_scenario": (["check", str(tmp / "nope.toml")], ["nope.toml", "not found"]),
+        "fine_ratio_not_finer": (
+            ["check", q, "--set", "coupling.fine_ratio=100"],
+            ["coupling.fine_ratio = 100", "smaller than coupling.ratio = 100"],
+        ),
+        "fine_ratio_not_dividing": (
+            ["run", q, "--set", "coupling.fine_ratio=30"],
+            ["coupling.fine_ratio = 30", "divide it"],
+        ),
+        "sample_interval": (
+            ["run", q, "--set", "output.sample_interval=1e-9"],
+            ["output.sample_interval = 1e-09 s", "below the time step"],
+        ),
         "outdir_file": (["run", q, "-o", str(as_file)], [f"output directory {as_file} is a file"]),
     }
     unwritable = _unwritable(tmp)

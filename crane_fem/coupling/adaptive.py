@@ -236,8 +236,9 @@ class Adaptive(MethodBase):
         self.counts = {k: int(state["counts"][k]) for k in self.counts}
         has = bool(state["has_slipping"])
         self._slipping = np.asarray(state["slipping"], dtype=bool) if has else None
-        self.coarse.method.load_method_state(state["coarse"])
-        self.fine.method.load_method_state(state["fine_method"])
+        # (A checkpoint keeps no empty table: a method without state of its own has none.)
+        self.coarse.method.load_method_state(state.get("coarse", {}))
+        self.fine.method.load_method_state(state.get("fine_method", {}))
 
     def destroy(self) -> None:
         self.fine.side.destroy()
