@@ -17,6 +17,7 @@ from conftest import (
     REFERENCE_RTOL_HYBRID,
     REFERENCE_RTOL_NP2,
     assert_same_histories,
+    quick_fixed,
     mpiexec_env,
     reference,
     run_serial_and_two_ranks,
@@ -33,8 +34,13 @@ G = 9.81
 HOISTED = 200.0  # kg, demos/crane_quick.toml
 
 
-def _run(out: Path, *overrides: str, scene: Path = QUICK) -> dict:
+def _run(out: Path, *overrides: str, scene: Path = QUICK, fixed: bool = False) -> dict:
+    """Run ``scene`` with ``overrides``; the quick scene (or a copy of it: ``fixed``) as its
+    references were made (GC at a fixed ratio: conftest.quick_fixed) unless the overrides
+    say otherwise."""
     args = ["run", str(scene), "-o", str(out), "--no-progress"]
+    if scene == QUICK or fixed:
+        args += quick_fixed()
     for o in overrides:
         args += ["--set", o]
     assert main(args) == 0
@@ -245,7 +251,7 @@ def test_quick_scene_mpiexec_same_histories(tmp_path, method) -> None:
     contact pairs and interface DOFs on both ranks; "hybrid": with its three kinds of macro
     step, decided the same way on both ranks."""
     args = [str(QUICK), "--set", "output.xdmf=false", "--set", "time.end=0.03"]
-    args += ["--set", f"coupling.method='{method}'"]
+    args += quick_fixed(method)
     # One BLAS/OpenMP thread in both runs (mpiexec_env): threaded kernels sum in an order
     # that may change from run to run, and the serial run is then not reproducible to the bit.
     serial, par = run_serial_and_two_ranks(args, tmp_path)
@@ -285,7 +291,7 @@ def test_quick_scene_mpiexec_equals_the_python_path(tmp_path, method) -> None:
     mpiexec = Path(sys.executable).parent / "mpiexec"
     exe = Path(sys.executable).parent / "crane-fem"
     cmd = [str(mpiexec), "-n", "2", str(exe), "run", str(QUICK), "-o", str(tmp_path)]
-    cmd += ["--set", "output.xdmf=false", "--set", f"coupling.method='{method}'"]
+    cmd += ["--set", "output.xdmf=false", *quick_fixed(method)]
     subprocess.run(cmd, check=True, capture_output=True, env=mpiexec_env())
     h2 = read_history(tmp_path / "history.csv")
     assert_same_histories(reference(f"quick_{method}_np2"), h2, REFERENCE_RTOL_NP2)
@@ -339,7 +345,7 @@ def test_ec_coupling_refused_where_contacts_change_near_the_interface(shared_tmp
     converge, and the run stops with one line naming the method, the time and the residual
     (exit 1), as "ph" refuses an active contact."""
     out = shared_tmp / "ec"
-    assert main(["run", str(QUICK), "-o", str(out), "--set", "coupling.method='ec'"]) == 1
+    assert main(["run", str(QUICK), "-o", str(out), *quick_fixed("ec")]) == 1
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "coupling method 'ec'" in err and "use" in err, err
 
@@ -404,7 +410,7 @@ def test_four_explicit_subdomains_coupled_to_one_implicit(shared_tmp) -> None:
     mesh = f"model.mesh='{(DEMOS.parent / 'meshes' / 'crane.msh').as_posix()}'"
     common = ["time.end=0.004", "output.xdmf=false"]
     one = _run(shared_tmp / "one_zone", *common)
-    four_s = _run(shared_tmp / "four_zones", mesh, *common, scene=scene)
+    four_s = _run(shared_tmp / "four_zones", mesh, *common, scene=scene, fixed=True)
     assert four_s["interface_dofs"] == one["interface_dofs"] > 0
     assert four_s["dt"] == one["dt"]
     h1 = read_history(shared_tmp / "one_zone" / "history.csv")

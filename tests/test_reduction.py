@@ -8,7 +8,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_same_histories, run_serial_and_two_ranks
+from conftest import COMM, assert_same_histories, quick_fixed, run_serial_and_two_ranks
 from mpi4py import MPI
 
 from crane_fem.cli import main
@@ -26,7 +26,11 @@ REDUCED = ["subdomain.1.scheme='newmark-reduced'"]
 
 
 def _run(out: Path, *overrides: str, scene: Path = QUICK) -> dict:
+    """Run ``scene``; the quick scene as its measurements were made (GC at a fixed ratio,
+    conftest.quick_fixed) unless the overrides say otherwise."""
     args = ["run", str(scene), "-o", str(out), "--no-progress", "--set", "output.xdmf=false"]
+    if scene == QUICK:
+        args += quick_fixed()
     for o in overrides:
         args += ["--set", o]
     assert main(args) == 0

@@ -44,14 +44,25 @@ def demo(name: str) -> Path:
     return path
 
 
-def explicit_settings(scene: Path, scale: float = 1.0, dt: float = 1.0) -> dict[str, Any]:
+def explicit_settings(
+    scene: Path,
+    scale: float = 1.0,
+    dt: float = 1.0,
+    sampling: float | None = None,
+    base: dict[str, Any] | None = None,
+) -> dict[str, Any]:
     """The settings of a crane scene's fully explicit run with the record scaled by
-    ``scale`` and Δt by ``dt``, the girders' stress evaluated at the scene's physical times
-    (output.stress_every macro steps of ``ratio`` steps: twice as many of the halved step).
-    The suites that need the same run (the Pareto chart's reference, the ensemble's member)
-    get the same settings from here, and so share the run (:func:`run_case`)."""
-    sc = load_scenario(scene)
-    out: dict[str, Any] = {"coupling.method": "monolithic", "output.xdmf": False}
+    ``scale`` and Δt by ``dt``, sampled every ``sampling`` seconds (the nominal run's
+    ``sampling_interval_s``, so that a run of another Δt samples the same instants; None:
+    the scene's own interval), on top of ``base`` (a variant's settings). The suites that
+    need the same run (the Pareto chart's reference, the ensemble's member) get the same
+    settings from here, and so share the run (:func:`run_case`)."""
+    sc = load_scenario(
+        scene,
+        [f"{k}={toml_value(v)}" for k, v in (base or {}).items() if v is not None],
+        [k for k, v in (base or {}).items() if v is None],
+    )
+    out: dict[str, Any] = {**(base or {}), "coupling.method": "monolithic", "output.xdmf": False}
     if scale != 1.0:
         gm = sc.loading.ground_motion
         assert gm is not None
@@ -63,7 +74,8 @@ def explicit_settings(scene: Path, scale: float = 1.0, dt: float = 1.0) -> dict[
     if dt != 1.0:
         assert sc.time.dt_factor is not None
         out["time.dt_factor"] = sc.time.dt_factor * dt
-        out["output.stress_every"] = round(sc.output.stress_every / dt)
+    if sampling is not None:
+        out["output.sample_interval"] = sampling
     return out
 
 
@@ -114,25 +126,32 @@ def run_case(
     outdir: Path,
     comm: MPI.Comm | None = None,
 ) -> Outcome:
-    """Run ``scenario`` with ``settings`` ({"key.path": value}) into ``outdir`` (emptied
-    first), in this process and without a progress bar (collective over ``comm``). A run
-    with the same scenario and settings done earlier in this process is returned again."""
+    """Run ``scenario`` with ``settings`` ({"key.path": value}; None removes the key) into
+    ``outdir`` (emptied first), in this process and without a progress bar (collective over
+    ``comm``). A run with the same scenario and settings done earlier in this process is
+    returned again."""
     comm = MPI.COMM_WORLD if comm is None else comm
-    overrides = [f"{k}={toml_value(v)}" for k, v in sorted(settings.items())]
-    key = (str(Path(scenario).resolve()), "\n".join(overrides))
+    overrides = [f"{k}={toml_value(v)}" for k, v in sorted(settings.items()) if v is not None]
+    unset = sorted(k for k, v in settings.items() if v is None)
+    key = (str(Path(scenario).resolve()), "\n".join([*overrides, *unset]))
     if key in _DONE:
         return _DONE[key]
-    outcome = _run(label, scenario, overrides, outdir, comm)
+    outcome = _run(label, scenario, overrides, outdir, comm, unset)
     _DONE[key] = outcome
     return outcome
 
 
 def _run(
-    label: str, scenario: str | Path, overrides: list[str], outdir: Path, comm: MPI.Comm
+    label: str,
+    scenario: str | Path,
+    overrides: list[str],
+    outdir: Path,
+    comm: MPI.Comm,
+    unset: list[str] | None = None,
 ) -> Outcome:
     from crane_fem.driver import run_scenario
 
-    sc = load_scenario(scenario, overrides)
+    sc = load_scenario(scenario, overrides, unset)
     if comm.rank == 0 and outdir.exists():
         shutil.rmtree(outdir)
     comm.barrier()

@@ -1,26 +1,26 @@
-"""The crane judged against its own conditioning: an ensemble of fully explicit runs and the
-coupling methods measured by criteria (a), (b) and (c).
-
-A multi-impact crane run is ill-conditioned: its whole-run pair displacement moves by 13–14 %
-when the record is scaled by 1.005 (RESULTS.md). So a method is judged
+"""The crane judged by THEORY.md §8: each scene's coupled runs against its fully explicit run,
+quantity by quantity with engineering tolerances, beside the explicit ensemble that says how
+far the scene itself moves.
 
 - (a) through the first landing and its bounce, up to the reference's second take-off: the
   relative L2 difference of the probed wheel/rail pair's vertical displacement, ≤ 2 % on both
   sides of every wheel;
-- (b) over the whole run by engineering quantities: per wheel the lift-off count, the largest
-  uplift and the peak impact force (from every micro step, summary ``wheels``), and the peak
-  von Mises stress of the girders. Each method's deviation from the reference, divided by the
-  half-range of the explicit ensemble (the reference, record × 0.995, record × 1.005, Δt × ½),
-  must be ≤ 1 (0 / 0 counts as 0: a count every explicit run agrees on must be matched);
-- (c) by the interface energy, reported with the band of the motion it removes: the power the
+- (b) over the whole run, every quantity of :mod:`crane_fem.tolerances` (uplift, flights,
+  landing impulses and forces, slip, flanges, the bridge's stress and its part, the supports,
+  the floor spectra) against the fully explicit run (Δt = 0.9 Δt_crit), each within its
+  tolerance. The explicit ensemble (record × 0.995, × 1.005, Δt × ½ sampled at the same
+  instants) is judged the same way: a quantity that an explicit member itself misses is
+  beyond the scene's conditioning at that tolerance, and is reported so;
+- (c) the interface energy, reported with the band of the motion it removes: the power the
   run lacks against the reference in the pair velocities after the first landing, by band of
-  the implicit Nyquist frequency 1/(2ΔT) (the histories are sampled once per macro step).
+  the sampling's Nyquist frequency.
 """
 
 from __future__ import annotations
 
+import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -30,77 +30,90 @@ from mpi4py import MPI
 
 from crane_fem.bench import Section
 from crane_fem.bench.common import Outcome, demo, explicit_settings, run_case, write_csv
-from crane_fem.io.results import flange_impacts
+from crane_fem.spectra import read_spectra_csv
+from crane_fem.tolerances import Check, judge_runs, lift_off_counts
 
-__all__ = ["NAME", "SUMMARY", "Scene", "judge", "report_scenes", "run", "scene_report"]
+__all__ = [
+    "AS_WRITTEN",
+    "GC_FIXED",
+    "NAME",
+    "SUMMARY",
+    "Scene",
+    "conditioning",
+    "judge",
+    "report_scenes",
+    "run",
+    "scene_report",
+    "second_take_off",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
 NAME = "ensemble"
-SUMMARY = "the crane against its own conditioning: explicit ensemble, criteria (a), (b), (c)"
+SUMMARY = "the crane scenes by THEORY.md §8: engineering tolerances against the explicit run"
 
 #: Criterion (a): pair L2 through the first landing and its bounce.
 PAIR_L2_LIMIT = 0.02
-#: The explicit ensemble: (label, record scale factor, Δt factor).
+#: The explicit ensemble beyond the reference: (label, record scale factor, Δt factor).
 MEMBERS = [
-    ("explicit (reference)", 1.0, 1.0),
     ("explicit, record × 0.995", 0.995, 1.0),
     ("explicit, record × 1.005", 1.005, 1.0),
     ("explicit, Δt × ½", 1.0, 0.5),
 ]
-#: Bands of criterion (c), as fractions of the implicit Nyquist frequency 1/(2ΔT).
+#: Bands of criterion (c), as fractions of the sampling's Nyquist frequency.
 BANDS = [(0.0, 0.125), (0.125, 0.25), (0.25, 0.5), (0.5, 1.0)]
 
 
 @dataclass
 class Scene:
-    """A crane scene and the coupling methods run on it: (label, settings)."""
+    """A crane scene (``demos/<name>.toml``), the variant's settings applied to every run of
+    it (an untuned variant: another trolley position, record or window), and the coupled
+    runs made on it: (label, settings); ``{}`` is the scene as written."""
 
     name: str
     methods: list[tuple[str, dict[str, Any]]]
-    #: Horizontal shaking (issue 16): (b) also judges each wheel's slip along and across its
-    #: rail and its flange impacts (count and peak force).
-    sliding: bool = False
+    settings: dict[str, Any] = field(default_factory=dict)
+    title: str = ""
+
+    @property
+    def label(self) -> str:
+        return self.title or self.name
 
 
-GC: tuple[str, dict[str, Any]] = ("gc", {})
-QUICK = [Scene("crane_quick", [GC, ("hybrid", {"coupling.method": "hybrid"})])]
-REDUCED = {"subdomain.1.scheme": "newmark-reduced", "subdomain.1.modes": 200}
-# (the stress-grade scene evaluates the girders' stress every macro step, as its other runs)
+AS_WRITTEN: tuple[str, dict[str, Any]] = ("as written", {})
+#: The former default: GC at the scene's coarse ratio, fixed, the implicit mass consistent.
+GC_FIXED: tuple[str, dict[str, Any]] = (
+    "gc, fixed m",
+    {
+        "coupling.method": "gc",
+        "coupling.fine_ratio": None,
+        "coupling.refine_quiet": None,
+        "newmark": None,
+    },
+)
+#: The untuned variants of the default scene (neither was used to choose the defaults): the
+#: trolley off centre (1.5 m of the 4 m span, its own committed mesh) under another window
+#: of the vertical record; the centred trolley under the horizontal N–S record applied
+#: vertically.
+OFF_CENTRE = {
+    "model.mesh": "../meshes/crane_offcentre.msh",
+    "model.trolley_position": 1.5,
+    "loading.ground_motion.start": 3.1,
+    "time.end": 0.4,
+}
+OTHER_RECORD = {
+    "loading.ground_motion.record": "el_centro_1940_180",
+    "loading.ground_motion.scale": 5.0,
+    "loading.ground_motion.start": 2.0,
+    "time.end": 0.33,
+}
+QUICK = [Scene("crane_quick", [AS_WRITTEN, GC_FIXED])]
 FULL = [
-    Scene(
-        "crane",
-        [
-            GC,
-            ("gc-mean", {"coupling.method": "gc-mean"}),
-            ("hybrid", {"coupling.method": "hybrid"}),
-            # m = 20: where (b) would need the macro step (the stress at the same times).
-            ("gc, m = 20", {"coupling.ratio": 20, "output.stress_every": 5}),
-        ],
-    ),
-    Scene(
-        "crane_stress",
-        [GC, ("gc-mean", {"coupling.method": "gc-mean"}), ("gc, reduced side N = 200", REDUCED)],
-    ),
+    Scene("crane", [AS_WRITTEN, GC_FIXED]),
+    Scene("crane", [AS_WRITTEN], OFF_CENTRE, "crane, trolley off centre, window 3.1 s"),
+    Scene("crane", [AS_WRITTEN], OTHER_RECORD, "crane, N–S record vertical ×5"),
+    Scene("crane_stress_reduced", [AS_WRITTEN, GC_FIXED]),
 ]
-
-
-def _quantities(o: Outcome, sliding: bool = False) -> dict[str, float]:
-    """The engineering quantities of criterion (b) of a run (``sliding``: with each wheel's
-    slip and flange impacts)."""
-    q: dict[str, float] = {}
-    for k, w in sorted(o.summary.get("wheels", {}).items()):
-        q[f"wheel {k} lift-offs"] = float(w["lift_offs"]["count"])
-        q[f"wheel {k} max uplift (mm)"] = 1e3 * w["max_uplift_m"]
-        q[f"wheel {k} peak force (kN)"] = 1e-3 * w["peak_force_N"]
-        if sliding:
-            q[f"wheel {k} max slip across (mm)"] = 1e3 * w["max_slip_across_m"]
-            q[f"wheel {k} max slip along (mm)"] = 1e3 * w["max_slip_along_m"]
-            count, peak = flange_impacts(o.summary, k) or (0, 0.0)
-            q[f"wheel {k} flange impacts"] = float(count)
-            q[f"wheel {k} flange peak force (kN)"] = 1e-3 * peak
-    q["girder peak von Mises (MPa)"] = 1e-6 * float(o.summary.get("peak_bridge_von_mises_Pa", 0))
-    return q
 
 
 def second_take_off(ref: Outcome) -> float:
@@ -146,111 +159,161 @@ def _lost_band(run: Outcome, ref: Outcome, t_from: float) -> list[float]:
     ]
 
 
-def judge(
-    method: Outcome, ref: Outcome, members: list[Outcome], sliding: bool = False
-) -> dict[str, dict[str, float]]:
-    """Criterion (b): per quantity, the method's value, the reference's, the ensemble's
-    half-range and the ratio |method − reference| / half-range (0 / 0 = 0)."""
-    qs = [_quantities(m, sliding) for m in members]
-    qm, qr = _quantities(method, sliding), _quantities(ref, sliding)
-    out: dict[str, dict[str, float]] = {}
-    for name in qr:
-        values = [q[name] for q in qs]
-        half = 0.5 * (max(values) - min(values))
-        dev = abs(qm[name] - qr[name])
-        ratio = 0.0 if dev == 0.0 else (dev / half if half > 0 else float("inf"))
-        out[name] = {"method": qm[name], "reference": qr[name], "half_range": half, "ratio": ratio}
+def _spectra(o: Outcome) -> tuple[Any, dict[str, Any]] | None:
+    path = o.outdir / "spectra.csv"
+    return read_spectra_csv(path) if path.exists() else None
+
+
+def judge(run: Outcome, ref: Outcome) -> list[Check]:
+    """Criterion (b): the checks of ``run`` against the fully explicit run ``ref``."""
+    return judge_runs(run.summary, ref.summary, _spectra(run), _spectra(ref))
+
+
+def conditioning(members: list[list[Check]]) -> dict[tuple[str, str], float]:
+    """Per quantity (quantity, where), the largest error / tolerance of the explicit
+    ensemble's members against the reference: above 1, the tolerance is finer than the scene
+    itself resolves (a ±0.5 % record or a halved Δt moves the explicit run by more)."""
+    out: dict[tuple[str, str], float] = {}
+    for checks in members:
+        for c in checks:
+            key = (c.quantity, c.where)
+            out[key] = max(out.get(key, 0.0), c.ratio)
     return out
+
+
+def _member_runs(scene: Scene, runs: Path) -> tuple[Outcome, list[Outcome]]:
+    """The fully explicit reference and the other members (collective)."""
+    path = demo(scene.name)
+    stem = scene.label.replace(" ", "_").replace(",", "").replace("×", "x")
+    base = {**scene.settings}
+    ref_settings = explicit_settings(path, base=base)
+    ref = run_case("explicit (reference)", path, ref_settings, runs / stem / "reference")
+    if not ref.stable:
+        raise RuntimeError(f"{scene.label}: the explicit reference is {ref.status}")
+    sampling = float(ref.summary["sampling_interval_s"])
+    members = []
+    for i, (label, s, d) in enumerate(MEMBERS):
+        settings = explicit_settings(path, s, d, sampling if d != 1.0 else None, base)
+        members.append(run_case(label, path, settings, runs / stem / f"member{i + 1}"))
+    bad = [m.label for m in members if not m.stable]
+    if bad:
+        raise RuntimeError(f"{scene.label}: explicit ensemble run(s) {bad} did not complete")
+    return ref, members
+
+
+def _fmt_ratio(x: float) -> str:
+    return "inf" if not math.isfinite(x) else f"{x:.2f}"
 
 
 def scene_report(scene: Scene, out: Path) -> tuple[str, list[dict[str, Any]]]:
     """Run one scene's ensemble and methods; its Markdown and CSV rows."""
-    path = demo(scene.name)
-    runs = out / "runs" / "ensemble" / scene.name
-    members = [
-        run_case(label, path, explicit_settings(path, s, d), runs / f"member{i}")
-        for i, (label, s, d) in enumerate(MEMBERS)
-    ]
-    bad = [m.label for m in members if not m.stable]
-    if bad:
-        raise RuntimeError(f"{scene.name}: explicit ensemble run(s) {bad} did not complete")
-    ref = members[0]
+    runs = out / "runs" / "ensemble"
+    ref, members = _member_runs(scene, runs)
+    member_checks = [judge(m, ref) for m in members]
+    cond = conditioning(member_checks)
     t2 = second_take_off(ref)
     from crane_fem.compare import first_landing
     from crane_fem.plotting import Run
 
     landing = first_landing(Run(ref.outdir, ref.history, ref.summary)) or 0.0
-    rows: list[dict[str, Any]] = []
-    lines = [
-        f"### {scene.name}: reference's second take-off at t = {t2:.4f} s; "
-        f"first landing at t = {landing:.4f} s",
-        "",
-        "| run | (a) pair L2 wheel / rail, worst wheel | (a) ≤ 2 % | (b) worst ratio "
-        "(quantity) | (b) ≤ 1 | (c) E_Γ / max W_ext | (c) lost power by band of 1/(2ΔT): "
-        + ", ".join(f"{a:g}–{b:g}" for a, b in BANDS)
-        + " | wall s per simulated s |",
-        "|---|---|---|---|---|---|---|---|",
-    ]
-    candidates = members[1:] + [
-        run_case(label, path, {"output.xdmf": False, **st}, runs / label.replace(" ", "_"))
+    path = demo(scene.name)
+    stem = scene.label.replace(" ", "_").replace(",", "").replace("×", "x")
+    methods = [
+        run_case(
+            label,
+            path,
+            {**scene.settings, "output.xdmf": False, **st},
+            runs / stem / label.replace(" ", "_").replace(",", ""),
+        )
         for label, st in scene.methods
     ]
-    for o in candidates:
-        row: dict[str, Any] = {"scene": scene.name, "run": o.label, "status": o.status}
+    loop_ref = float(ref.summary["wall_time_integration_s"])
+    lines = [
+        f"### {scene.label}: first landing at t = {landing:.4f} s, reference's second "
+        f"take-off at t = {t2:.4f} s, sampled every "
+        f"{1e3 * float(ref.summary['sampling_interval_s']):.3g} ms",
+        "",
+        "| run | (a) pair L2 wheel / rail, worst wheel | (a) ≤ 2 % | (b) worst error / tolerance "
+        "(quantity) | (b) quantities out | of them beyond the scene's conditioning | (c) E_Γ / "
+        "max W_ext; lost power by band of the Nyquist: "
+        + ", ".join(f"{a:g}–{b:g}" for a, b in BANDS)
+        + " | time loop (s) | explicit / run |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    rows: list[dict[str, Any]] = []
+    columns: list[tuple[str, list[Check]]] = []
+    for o, checks in [*zip(members, member_checks, strict=True), *((m, None) for m in methods)]:
+        row: dict[str, Any] = {"scene": scene.label, "run": o.label, "status": o.status}
         if not o.stable:
-            lines.append(f"| {o.label} | {o.status}: {o.diagnosis[:80]} | | | | | | |")
+            lines.append(f"| {o.label} | {o.status}: {o.diagnosis[:80]} | | | | | | | |")
             rows.append(row)
             continue
+        checks = checks if checks is not None else judge(o, ref)
+        columns.append((o.label, checks))
         l2 = _pair_l2(o, ref, t2)
         worst_w = max(v[0] for v in l2.values())
         worst_r = max(v[1] for v in l2.values())
-        b = judge(o, ref, members, scene.sliding)
-        worst_q = max(b, key=lambda n: b[n]["ratio"])
+        w = max(checks, key=lambda c: c.ratio)
+        out_q = [c for c in checks if not c.ok]
+        beyond = [c for c in out_q if cond.get((c.quantity, c.where), 0.0) > 1.0]
         s = o.summary
         w_ext = float(np.max(np.abs(o.history["external_work"])))
-        e_if = float(s.get("interface_dissipated", o.history["interface_dissipated"][-1]))
+        e_if = float(o.history["interface_dissipated"][-1])
         e_rel = e_if / w_ext if w_ext > 0 else 0.0
         bands = _lost_band(o, ref, landing)
+        loop = float(s["wall_time_integration_s"])
         a_ok = max(worst_w, worst_r) <= PAIR_L2_LIMIT
-        b_ok = b[worst_q]["ratio"] <= 1.0
         lines.append(
             f"| {o.label} | {100 * worst_w:.2f} % / {100 * worst_r:.2f} % | "
-            f"{'yes' if a_ok else '**no**'} | {b[worst_q]['ratio']:.2f} ({worst_q}) | "
-            f"{'yes' if b_ok else '**no**'} | {100 * e_rel:.2f} % | "
+            f"{'yes' if a_ok else '**no**'} | {_fmt_ratio(w.ratio)} ({w.quantity}, {w.where}) "
+            f"| {len(out_q)} of {len(checks)} | {len(beyond)} | {100 * e_rel:.2f} %; "
             + ", ".join(f"{100 * x:.0f} %" for x in bands)
-            + f" | {o.wall_per_second:.1f} |"
+            + f" | {loop:.1f} | {loop_ref / loop:.2f} |"
         )
         row.update(
             {
                 "pair_l2_wheel": worst_w,
                 "pair_l2_rail": worst_r,
                 "criterion_a": a_ok,
-                "worst_ratio_b": b[worst_q]["ratio"],
-                "worst_quantity_b": worst_q,
-                "criterion_b": b_ok,
+                "worst_ratio_b": w.ratio,
+                "worst_quantity_b": f"{w.quantity}, {w.where}",
+                "quantities_out_b": len(out_q),
+                "out_beyond_conditioning": len(beyond),
                 "interface_energy_rel": e_rel,
-                **{f"lost_band_{a:g}_{bb:g}": x for (a, bb), x in zip(BANDS, bands, strict=True)},
-                "wall_per_second": o.wall_per_second,
-                **{f"b: {n}": v["ratio"] for n, v in b.items()},
+                "time_loop_s": loop,
+                "speed_up": loop_ref / loop,
+                "adaptive_fine_fraction": s.get("adaptive", {}).get("fine_time_fraction", 0.0),
+                **{f"b: {c.quantity}, {c.where}": c.ratio for c in checks},
             }
         )
         rows.append(row)
-    # The quantities themselves: the ensemble's range and each method's value.
-    qs = {m.label: _quantities(m, scene.sliding) for m in members}
-    qm = {
-        o.label: _quantities(o, scene.sliding) for o in candidates[len(members) - 1 :] if o.stable
-    }
-    names = list(qs[ref.label])
     lines += [
         "",
-        "| quantity | ensemble min – max (half-range) | " + " | ".join(qm) + " |",
-        "|---|---|" + "---|" * len(qm),
+        "Lift-offs per wheel (run, reference): "
+        + "; ".join(
+            f"{label}: "
+            + ", ".join(
+                f"{k} {a}/{b}" for k, (a, b) in lift_off_counts(o.summary, ref.summary).items()
+            )
+            for label, o in ((m.label, m) for m in methods if m.stable)
+        ),
+        "",
+        "Each quantity's error / tolerance (the explicit ensemble's worst first; above 1 "
+        "there, the scene itself moves by more than the tolerance):",
+        "",
+        "| quantity | where | tolerance | reference | explicit ensemble | "
+        + " | ".join(label for label, _ in columns[len(members) :])
+        + " |",
+        "|---|---|---|---|---|" + "---|" * (len(columns) - len(members)),
     ]
-    for n in names:
-        vals = [q[n] for q in qs.values()]
+    by_run = [{(c.quantity, c.where): c for c in checks} for _, checks in columns]
+    for c in columns[0][1]:
+        key = (c.quantity, c.where)
+        ratios = [by[key].ratio if key in by else math.nan for by in by_run[len(members) :]]
         lines.append(
-            f"| {n} | {min(vals):.4g} – {max(vals):.4g} ({0.5 * (max(vals) - min(vals)):.3g}) | "
-            + " | ".join(f"{q[n]:.4g}" for q in qm.values())
+            f"| {c.quantity} | {c.where} | {c.rule} | {c.reference:.4g} {c.unit} | "
+            f"{_fmt_ratio(cond.get(key, 0.0))} | "
+            + " | ".join(_fmt_ratio(r) if r <= 1.0 else f"**{_fmt_ratio(r)}**" for r in ratios)
             + " |"
         )
     return "\n".join(lines), rows
@@ -272,17 +335,19 @@ def report_scenes(scenes: list[Scene], out: Path, csv_name: str) -> tuple[str, l
 
 
 def run(out: Path, quick: bool) -> list[Section]:
-    """Run the ensembles and methods of the quick scene (``quick``) or of the default and
-    stress-grade scenes (collective; files written on rank 0)."""
+    """Run the quick scene (``quick``) or the default scene, its two untuned variants and the
+    stress-grade reduced scene (collective; files written on rank 0)."""
     md, files, minutes = report_scenes(QUICK if quick else FULL, out, "ensemble.csv")
     body = (
-        "The crane judged against its own conditioning (issue 15): criteria (a), (b), (c) of "
-        "each method against an ensemble of fully explicit runs (the reference, record × "
-        "0.995, record × 1.005, Δt × ½). (b)'s ratio is |method − reference| / the "
-        "ensemble's half-range; the girder stress is evaluated at every macro step of "
-        "the scene's ratio m (output.stress_every), the same physical times in every run. "
-        f"{'Quick' if quick else 'Full'} suite: {minutes:.1f} min.\n\n" + md
+        "The crane scenes judged by THEORY.md §8 (issue 23): each coupled run against the "
+        "fully explicit run of the same scene (Δt = 0.9 Δt_crit) by (a) and by every "
+        "quantity of (b) with its engineering tolerance (crane_fem/tolerances.py); the "
+        "explicit ensemble (record × 0.995, × 1.005, Δt × ½ sampled at the same instants) "
+        "judged the same way says where a tolerance is finer than the scene's own "
+        "conditioning. Every run is sampled at the same physical instants "
+        "(output.sample_interval). Time loops of one process, side by side in one bench "
+        f"run. {'Quick' if quick else 'Full'} suite: {minutes:.1f} min.\n\n" + md
     )
     key = "ensemble-quick" if quick else "ensemble-full"
-    title = f"The crane ensemble{' (quick)' if quick else ''}: criteria (a), (b), (c)"
+    title = f"The crane by engineering tolerances{' (quick)' if quick else ''}: (a), (b), (c)"
     return [Section(key, title, body, files)]

@@ -108,6 +108,8 @@ class Adaptive(MethodBase):
         self.fine_until = 0
         self._slipping: npt.NDArray[np.bool_] | None = None
         self.counts = {"coarse": 0, "fine": 0, "redone": 0, "predicted": 0}
+        #: Fine steps that kept the fine rung, by reason (a step may have several).
+        self.kept_fine_by = {"closing": 0, "impact": 0, "stick_slip": 0}
 
     # ------------------------------------------------------------------------------------
     def _use(self, rung: Rung) -> None:
@@ -140,21 +142,31 @@ class Adaptive(MethodBase):
         return bool(self.system.sum([float(flag)])[0] > 0.0)
 
     def _stirred(self, res: GCStep) -> bool:
-        """Whether the step ``res`` had an impact, a flange strike, a contact change or a
-        stick–slip change (collective)."""
+        """Whether the step ``res`` had a closing, an impact or flange strike (a group's
+        force above its impact level) or a stick–slip change (collective: one reduction);
+        each reason is counted."""
         imp = res.micro.impulse
         impact = bool(imp.size and np.any(imp.max(axis=0) / self.system.dt > self.level))
         slipping = self._slip_state()
         slip = self._slipping is not None and not np.array_equal(slipping, self._slipping)
         self._slipping = slipping
-        return self._any(res.closed or impact or slip)
+        why = self.system.sum([float(res.closed), float(impact), float(slip)]) > 0.0
+        for key, hit in zip(("closing", "impact", "stick_slip"), why, strict=True):
+            self.kept_fine_by[key] += int(hit)
+        return bool(np.any(why))
 
     def _slip_state(self) -> npt.NDArray[np.bool_]:
-        """Which frictional contact points slid at the last micro step (empty without
-        friction)."""
+        """Which contact groups (a wheel, a flange) had a frictional point sliding at the
+        last micro step (empty without friction): a group that starts or stops sliding is a
+        stick–slip change; its points' slip rocking under it is not."""
         E = self.system.E
         assert E is not None
-        return E.slipping()
+        slipping = E.slipping()
+        if slipping.size == 0:
+            return slipping
+        groups = E.contacts.group[np.flatnonzero(E.zone.t_count > 0)]
+        count = np.bincount(groups, weights=slipping, minlength=self.system.n_groups)
+        return np.asarray(count > 0.0)
 
     def step(self) -> MacroRecord:
         s = self.system
@@ -211,6 +223,7 @@ class Adaptive(MethodBase):
                 "coarse_steps_redone": c["redone"],
                 "refined_by_prediction": c["predicted"],
                 "fine_time_fraction": c["fine"] * self.fine.ratio / micro if micro else 0.0,
+                "fine_steps_kept_by": dict(self.kept_fine_by),
             }
         }
         out.update(self.coarse.method.summary())
@@ -221,6 +234,7 @@ class Adaptive(MethodBase):
             "fine": self.rung is self.fine,
             "fine_until": self.fine_until,
             "counts": dict(self.counts),
+            "kept_fine_by": dict(self.kept_fine_by),
             "slipping": np.zeros(0, bool) if self._slipping is None else self._slipping,
             "has_slipping": self._slipping is not None,
             "coarse": self.coarse.method.method_state(),
@@ -234,6 +248,7 @@ class Adaptive(MethodBase):
             self._use(self.fine)
         self.fine_until = int(state["fine_until"])
         self.counts = {k: int(state["counts"][k]) for k in self.counts}
+        self.kept_fine_by = {k: int(state["kept_fine_by"][k]) for k in self.kept_fine_by}
         has = bool(state["has_slipping"])
         self._slipping = np.asarray(state["slipping"], dtype=bool) if has else None
         # (A checkpoint keeps no empty table: a method without state of its own has none.)

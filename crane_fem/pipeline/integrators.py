@@ -72,12 +72,19 @@ class IntegratorStage:
 
 
 def _static_forces(models: ModelStage, cons: ConstraintStage) -> FloatArray | None:
-    """Each contact group's static force (N): the preload's wheel forces, zero on the groups
-    after the wheels (flanges); None without a preload."""
+    """Each contact group's static force (N), the scale of its impact level for the refining
+    macro step: the preload's wheel forces, and for each flange its wheel's (a flange pressed
+    along its rail is steady contact; a strike's burst exceeds twice the wheel's share of the
+    weight); None without a preload."""
     if models.preload is None:
         return None
-    static = np.zeros(len(cons.contacts.group_names))
-    static[: models.preload.wheel_force.size] = models.preload.wheel_force
+    wheels = models.preload.wheel_force
+    names = cons.contacts.group_names
+    static = np.zeros(len(names))
+    static[: wheels.size] = wheels
+    for i, name in enumerate(names):
+        if name.startswith(("flange_in_", "flange_out_")):
+            static[i] = wheels[int(name.rsplit("_", 1)[1]) - 1]
     return static
 
 

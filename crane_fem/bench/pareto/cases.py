@@ -12,7 +12,16 @@ from crane_fem.bench.pareto.points import Spec
 from crane_fem.exact import WallImpact
 from crane_fem.scenario import BarModel, load_scenario
 
-__all__ = ["COUPLINGS", "CRANE_RATIOS", "NOMINAL", "bar_specs", "crane_specs"]
+__all__ = ["COUPLINGS", "CRANE_RATIOS", "NOMINAL", "REFINING_FULL", "bar_specs", "crane_specs"]
+
+#: The stress-grade full-side scene refining at impacts as demos/crane_stress_reduced.toml
+#: does (crane_stress.toml itself keeps GC at m = 200).
+REFINING_FULL = {
+    "coupling.method": "gc-mean",
+    "coupling.fine_ratio": 20,
+    "coupling.refine_quiet": 1e-3,
+    "newmark.mass": "lumped",
+}
 
 #: The crane's nominal fully explicit run (``explicit_settings(scene)``, the keys it sets);
 #: :func:`~crane_fem.bench.common.explicit_settings` gives its Δt × ½ reference. The ensemble
@@ -102,6 +111,8 @@ def _coupled_settings(scene: Path, method: str, m: int) -> dict[str, Any]:
         s["coupling.method"] = method
     if m != sc.coupling.ratio:
         s["coupling.ratio"] = m
+    if sc.coupling.fine_ratio is not None:  # a fixed ratio: the refining keys go
+        s.update({"coupling.fine_ratio": None, "coupling.refine_quiet": None})
     return s
 
 
@@ -142,4 +153,23 @@ def crane_specs(quick: bool, window: float) -> tuple[list[Spec], str]:
             if m == 10 and not quick:
                 s["time.end"] = params["time_end"] = window
             specs.append(Spec("crane", fam, label, sc, s, params))
+    # The macro step that refines at impacts: the scenes that use it as written (quick: the
+    # scene itself; full: the stress-grade reduced scene), and the full side with its keys.
+    fam = "gc-mean refining"
+    if quick:
+        specs.append(Spec("crane", fam, f"{name}_refining", scene, {"output.xdmf": False}, {}))
+    else:
+        full = {"output.xdmf": False, **REFINING_FULL}
+        specs.append(Spec("crane", fam, f"{name}_refining", scene, full, {"m": 200}))
+        red = demo("crane_stress_reduced")
+        specs.append(
+            Spec(
+                "crane",
+                f"{fam}, reduced",
+                f"{name}_reduced_refining",
+                red,
+                {"output.xdmf": False},
+                {"modes": modes},
+            )
+        )
     return specs, name
