@@ -180,6 +180,8 @@ def quick_fixed(method: str = "gc") -> list[str]:
     with ``method`` at the scene's ratio (later ``--set`` arguments override)."""
     args = [a for key in QUICK_FIXED_UNSET for a in ("--unset", key)]
     return [*args, "--set", f"coupling.method='{method}'"]
+
+
 #: The compiled kernel against the Python path it replaced (issue 13: 1e-10 relative). The
 #: floor is that path's own spread: its serial and two-rank runs differed by 3.3e-11 (gc) to
 #: 9.1e-11 (monolithic), two of its two-rank runs by 7.1e-11 (tests/data/reference/README.md):

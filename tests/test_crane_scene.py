@@ -17,8 +17,8 @@ from conftest import (
     REFERENCE_RTOL_HYBRID,
     REFERENCE_RTOL_NP2,
     assert_same_histories,
-    quick_fixed,
     mpiexec_env,
+    quick_fixed,
     reference,
     run_serial_and_two_ranks,
 )
