@@ -57,6 +57,8 @@ class Check:
     value: float
     reference: float
     unit: str
+    #: What the check was read at beyond ``where`` (a spectrum's worst period).
+    note: str = ""
 
     @property
     def tolerance(self) -> float:
@@ -165,8 +167,10 @@ def _spectra_checks(
         a, b = np.asarray(curves[name]), np.asarray(rc)
         rel = np.abs(a - b) / np.maximum(np.abs(b), 1e-300)
         j = int(np.argmax(rel))
-        label = f"{name.replace('_', ' ')} at T = {periods[j]:.3g} s"
-        out.append(Check("floor response spectrum", label, float(a[j]), float(b[j]), "m/s²"))
+        where, note = name.replace("_", " "), f"T = {periods[j]:.3g} s"
+        out.append(
+            Check("floor response spectrum", where, float(a[j]), float(b[j]), "m/s²", note)
+        )
     return out
 
 
@@ -220,8 +224,9 @@ def table_lines(checks: list[Check]) -> list[str]:
             if c.reference
             else _fmt(c.value - c.reference, c.unit)
         )
+        where = f"{c.where} ({c.note})" if c.note else c.where
         lines.append(
-            f"| {c.quantity} | {c.where} | {_fmt(c.value, c.unit)} | "
+            f"| {c.quantity} | {where} | {_fmt(c.value, c.unit)} | "
             f"{_fmt(c.reference, c.unit)} | {err} | {c.rule} | {c.ratio:.2f} | "
             f"{'yes' if c.ok else '**no**'} |"
         )

@@ -93,7 +93,7 @@ def test_spectra_checks_and_their_periods() -> None:
     run = (p, {"input_z": np.ones(3), "trolley_z": np.array([10.5, 19.0, 5.6])})
     checks = judge_runs({}, {}, run, ref)
     assert len(checks) == 1
-    assert checks[0].where.startswith("trolley z at T = 0.04")
+    assert checks[0].where == "trolley z" and checks[0].note == "T = 0.04 s"
     assert checks[0].ratio == pytest.approx(1.2)
     with pytest.raises(ValueError, match="periods"):
         judge_runs({}, {}, (p * 2, run[1]), ref)

@@ -265,7 +265,8 @@ def scene_report(scene: Scene, out: Path) -> tuple[str, list[dict[str, Any]]]:
         a_ok = max(worst_w, worst_r) <= PAIR_L2_LIMIT
         lines.append(
             f"| {o.label} | {100 * worst_w:.2f} % / {100 * worst_r:.2f} % | "
-            f"{'yes' if a_ok else '**no**'} | {_fmt_ratio(w.ratio)} ({w.quantity}, {w.where}) "
+            f"{'yes' if a_ok else '**no**'} | {_fmt_ratio(w.ratio)} ({w.quantity}, {w.where}"
+            f"{', ' + w.note if w.note else ''}) "
             f"| {len(out_q)} of {len(checks)} | {len(beyond)} | {100 * e_rel:.2f} %; "
             + ", ".join(f"{100 * x:.0f} %" for x in bands)
             + f" | {loop:.1f} | {loop_ref / loop:.2f} |"
