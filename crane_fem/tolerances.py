@@ -168,9 +168,7 @@ def _spectra_checks(
         rel = np.abs(a - b) / np.maximum(np.abs(b), 1e-300)
         j = int(np.argmax(rel))
         where, note = name.replace("_", " "), f"T = {periods[j]:.3g} s"
-        out.append(
-            Check("floor response spectrum", where, float(a[j]), float(b[j]), "m/s²", note)
-        )
+        out.append(Check("floor response spectrum", where, float(a[j]), float(b[j]), "m/s²", note))
     return out
 
 

@@ -25,6 +25,7 @@ from crane_fem.bench.stability.points import (
 )
 from crane_fem.bench.stability.report import duration, report_body
 from crane_fem.bench.stability.scenes import (
+    REFINING,
     Map,
     WallBar,
     cd_lagrange,
@@ -89,7 +90,7 @@ QUICK = Grid(
     wall_dt=(0.1, 0.3, 0.5, 0.9, 0.99, 1.01, 1.5, 2.0, 5.0),
     penalty_k=(0.1, 1.0, 10.0, 100.0),
     penalty_own=(0.5, 0.9, 0.99),
-    coupled_methods=("gc", "gc-mean", "hybrid", "ph"),
+    coupled_methods=("gc", "gc-mean", "hybrid", "ph", "gc refining", "gc-mean refining"),
     coupled_m=(1, 10, 100),
     coupled_dt=(0.25, 0.5, 0.9, 1.0, 1.01),
     undamped=(("gc", (2, 10, 100)), ("gc-mean", (2, 10, 100)), ("ph", (2, 10, 100))),
@@ -102,7 +103,10 @@ FULL = Grid(
     ),
     penalty_k=(0.01, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0, 1000.0),
     penalty_own=(0.3, 0.5, 0.7, 0.8, 0.9, 0.95, 0.99),
-    coupled_methods=("gc", "gc-mean", "hybrid", "ec", "ph"),
+    coupled_methods=(
+        *("gc", "gc-mean", "hybrid", "ec", "ph"),
+        *("gc refining", "gc-mean refining"),
+    ),
     coupled_m=(1, 10, 100, 1000),
     coupled_dt=(0.1, 0.25, 0.5, 0.75, 0.9, 0.99, 1.0, 1.01),
     undamped=tuple(
@@ -126,10 +130,12 @@ def run(out: Path, quick: bool) -> list[Section]:
         for s in wall_schemes(bar, grid.penalty_k)
     ]
     own = [[penalty_limit_point(k, f, bar, runs) for f in grid.penalty_own] for k in grid.penalty_k]
+    # A refining method needs a coarse ratio above 1 (its fine ratio divides it).
     coupled = [
         [coupled_point(method, m, r, runs) for r in grid.coupled_dt]
         for method in grid.coupled_methods
         for m in grid.coupled_m
+        if not (method.endswith(REFINING) and m == 1)
     ]
     undamped: list[list[Point]] = []
     for i, r in enumerate(grid.undamped_dt):

@@ -17,10 +17,12 @@ from crane_fem.bench.common import demo, toml_value
 from crane_fem.bench.stability.points import HISTORY_ROWS, Point, Scheme, run_point
 
 __all__ = [
+    "REFINING",
     "Map",
     "WallBar",
     "cd_lagrange",
     "coupled_point",
+    "fine_ratio",
     "penalty",
     "penalty_limit_point",
     "undamped_point",
@@ -142,15 +144,24 @@ def penalty_limit_point(k: float, fraction: float, bar: WallBar, runs: Path) -> 
 # ---------------------------------------------------------------- split bars (coupled)
 
 
+#: The suffix of a method name that refines its macro step at impacts (coupling.fine_ratio).
+REFINING = " refining"
+
+
+def fine_ratio(m: int) -> int:
+    """The fine ratio the map gives a refining method at coarse ratio ``m`` (> 1): m / 10, or
+    1 from m = 10 down."""
+    return max(1, m // 10) if m % 10 == 0 else 1
+
+
 def _coupled(method: str, m: int, family: str, row: str = "") -> Scheme:
-    return Scheme(
-        family,
-        f"{method} m={m}",
-        f"m = {m}",
-        {"coupling.method": method, "coupling.ratio": m},
-        m=m,
-        row=row,
-    )
+    base = method.removesuffix(REFINING)
+    settings: dict[str, Any] = {"coupling.method": base, "coupling.ratio": m}
+    label = f"m = {m}"
+    if method.endswith(REFINING):
+        settings["coupling.fine_ratio"] = fine_ratio(m)
+        label = f"m = {m} / {fine_ratio(m)}"
+    return Scheme(family, f"{method} m={m}", label, settings, m=m, row=row)
 
 
 def coupled_point(method: str, m: int, dt_ratio: float, runs: Path) -> Point:
