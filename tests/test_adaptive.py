@@ -4,13 +4,15 @@ the run is sampled on one physical interval whatever rungs it took, a closing is
 integrated on the coarse rung, and the refining GC and gc-mean reproduce the fully explicit
 quick crane scene within THEORY.md §8's engineering tolerances."""
 
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import COMM, make_scenario, run
+from conftest import COMM, assert_same_histories, make_scenario, run, run_serial_and_two_ranks
 
 from crane_fem.cli import main
+from crane_fem.io import read_history
 from crane_fem.tolerances import judge_dirs, worst
 
 QUICK = Path(__file__).parent.parent / "demos" / "crane_quick.toml"
@@ -117,3 +119,20 @@ def test_quick_scene_as_written_meets_the_engineering_tolerances(quick_pair) -> 
     assert not bad, bad
     w = worst(checks)
     assert w is not None and w.ratio <= 1.0
+
+
+@pytest.mark.serial
+@pytest.mark.mpi
+def test_quick_scene_as_written_mpiexec_same_as_serial(tmp_path) -> None:
+    """The refining step under `mpiexec -n 2` (quick scene as written, through its landing):
+    the same rungs on both ranks (every decision is one reduction) and the serial histories
+    to the crane's serial/parallel tolerance (1e-8: distributed sums in another order)."""
+    args = [str(QUICK), "--set", "output.xdmf=false"]
+    serial, par = run_serial_and_two_ranks(args, tmp_path)
+    s1 = json.loads((serial / "summary.json").read_text())
+    s2 = json.loads((par / "summary.json").read_text())
+    assert s2["mpi_size"] == 2 and s1["adaptive"]["fine_steps"] > 0
+    assert s2["adaptive"] == s1["adaptive"]
+    assert_same_histories(
+        read_history(serial / "history.csv"), read_history(par / "history.csv"), 1e-8
+    )

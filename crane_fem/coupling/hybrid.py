@@ -140,5 +140,5 @@ def create(system: CoupledSystem, setup: MethodSetup) -> Hybrid:
         system,
         setup.operator_for(system),
         lambda side: op(side, round(side.dT / dt), False),
-        **setup.options,
+        **{k: v for k, v in setup.options.items() if k in ("impact_ratio", "interface_tolerance")},
     )

@@ -251,7 +251,8 @@ def build_integrators(
                 assert factory is not None
                 return factory(zone, side, ratio, fixed)
 
-        keys = HYBRID_KEYS if models.method == "hybrid" else ("refine_quiet", "refine_margin")
+        # The method's own keys: the scenario refuses those of another method.
+        keys = (*HYBRID_KEYS, "refine_quiet", "refine_margin")
         setup = MethodSetup(
             operator if factory is not None else None,
             {k: getattr(cpl, k) for k in keys if getattr(cpl, k) is not None},
