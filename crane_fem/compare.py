@@ -12,7 +12,9 @@ numbers the acceptance of the crane scene asks for:
   all separations (chatter included) beside it;
 - the energy dissipated at the interface, relative to the largest magnitude of the external
   work over the run (the energy supplied by gravity and the earthquake);
-- the wall-time ratio (explicit / heterogeneous), of the whole runs and of their time loops.
+- the wall-time ratio (explicit / heterogeneous), of the whole runs and of their time loops;
+- criterion (b) of THEORY.md §8: every engineering quantity against the explicit run's with
+  its tolerance (crane_fem.tolerances), the worst ratio and the quantities out.
 """
 
 from __future__ import annotations
@@ -27,6 +29,9 @@ import numpy.typing as npt
 from crane_fem.peaks import LIFT_GAP, LIFT_HEIGHT
 from crane_fem.plotting import Run, load_runs
 from crane_fem.scenario import COUPLED_METHODS
+from crane_fem.spectra import read_spectra_csv
+from crane_fem.tolerances import Check, judge_runs
+from crane_fem.tolerances import worst as worst_check
 
 __all__ = [
     "compare_runs",
@@ -149,7 +154,34 @@ def compare_runs(het: Run, exp: Run, lift_gap: float = LIFT_GAP) -> dict[str, An
         out["time_loop_ratio_explicit_over_heterogeneous"] = le / lh
     out["lift_gap_m"] = lift_gap
     out["lift_height_m"] = LIFT_HEIGHT
+    checks = _tolerance_checks(het, exp)
+    out["tolerances"] = [
+        {
+            "quantity": c.quantity,
+            "where": c.where,
+            "note": c.note,
+            "value": c.value,
+            "explicit": c.reference,
+            "unit": c.unit,
+            "tolerance": c.rule,
+            "error_over_tolerance": c.ratio,
+            "within": c.ok,
+        }
+        for c in checks
+    ]
+    top = worst_check(checks)
+    out["worst_error_over_tolerance"] = top.ratio if top is not None else 0.0
+    out["quantities_out_of_tolerance"] = sum(not c.ok for c in checks)
     return out
+
+
+def _tolerance_checks(het: Run, exp: Run) -> list[Check]:
+    """Criterion (b) of the two runs (their spectra where both wrote them)."""
+    paths = [r.path / "spectra.csv" for r in (het, exp)]
+    if all(p.exists() for p in paths):
+        sh, se = (read_spectra_csv(p) for p in paths)
+        return judge_runs(het.summary, exp.summary, sh, se)
+    return judge_runs(het.summary, exp.summary)
 
 
 def write_comparison(outdir: Path) -> tuple[Path, dict[str, Any]] | None:
@@ -196,6 +228,17 @@ def describe(result: dict[str, Any]) -> list[str]:
         lines.append(
             f"wall time: explicit {wt['explicit']:.1f} s, heterogeneous "
             f"{wt['heterogeneous']:.1f} s (ratio {ratio:.2f})"
+        )
+    if "tolerances" in result:
+        out_q = [t for t in result["tolerances"] if not t["within"]]
+        lines.append(
+            f"engineering tolerances (THEORY.md §8 (b)): {len(result['tolerances']) - len(out_q)} "
+            f"of {len(result['tolerances'])} quantities within, worst error / tolerance "
+            f"{result['worst_error_over_tolerance']:.2f}"
+            + "".join(
+                f"; out: {t['quantity']}, {t['where']} ({t['error_over_tolerance']:.2f})"
+                for t in out_q[:5]
+            )
         )
     if "time_loop_ratio_explicit_over_heterogeneous" in result:
         lt = result["time_loop_s"]
