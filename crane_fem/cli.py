@@ -46,6 +46,9 @@ def _parser() -> argparse.ArgumentParser:
         prog="crane-fem",
         description="Seismic analysis of structures with impacts (CD-Lagrange, Newmark, GC).",
     )
+    from crane_fem import __version__
+
+    parser.add_argument("--version", action="version", version=f"crane-fem {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a scenario")
     run.add_argument("scenario", type=Path, help="scenario TOML file")

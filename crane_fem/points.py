@@ -21,11 +21,16 @@ import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 
+from crane_fem.errors import ScenarioError
 from crane_fem.loading.body import GroundMotionHistory
 from crane_fem.scenario import CraneModel, Scenario
 from crane_fem.subdomains import Subdomain
 
-__all__ = ["GroundAcceleration", "PointMotions", "default_points"]
+__all__ = ["GroundAcceleration", "PointMotions", "check_points", "default_points"]
+
+#: A measured point farther from the mesh than this fraction of its bounding box's diagonal
+#: is refused (a typo, or another unit): its nearest vertex would be somewhere else.
+POINT_REACH = 0.05
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -50,6 +55,27 @@ class GroundAcceleration:
         for history, d in self.parts:
             a += history(t) * d
         return a
+
+
+def check_points(points: dict[str, list[float]], xyz: FloatArray, comm: MPI.Comm) -> None:
+    """Refuse a point farther from every vertex than :data:`POINT_REACH` × the mesh's
+    diagonal (collective: ``xyz`` this rank's vertices, (n, 3); the same one line on every
+    rank)."""
+    if not points:
+        return
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    comm.Allreduce(np.min(xyz, axis=0) if xyz.size else lo.copy(), lo, op=MPI.MIN)
+    comm.Allreduce(np.max(xyz, axis=0) if xyz.size else hi.copy(), hi, op=MPI.MAX)
+    reach = POINT_REACH * float(np.linalg.norm(hi - lo))
+    for name, where in points.items():
+        d = np.linalg.norm(xyz - np.asarray(where)[None, :], axis=1)
+        dist = comm.allreduce(float(np.min(d)) if d.size else np.inf, op=MPI.MIN)
+        if dist > reach:
+            raise ScenarioError(
+                f"spectra.points.{name} = {list(where)}: {dist:.3g} m from the nearest point of "
+                f"the structure (more than {reach:.3g} m, 5 % of its extent): a point on the "
+                "structure is expected (metres, z up)"
+            )
 
 
 def default_points(sc: Scenario) -> dict[str, list[float]]:

@@ -59,6 +59,9 @@ def _cases(tmp: Path) -> dict[str, tuple[list[str], list[str]]]:
     bare = tmp / "bare.msh"  # the committed mesh without its sidecar
     shutil.copy(MESH, bare)
     q = str(QUICK)
+    same_name = tmp / "same_name.toml"
+    text = QUICK.read_text().replace('name = "structure"', 'name = "contact_zones"')
+    same_name.write_text(text.replace("../meshes/", f"{MESH.parent.as_posix()}/"))
     cases = {
         "mesh_keys": (["check", q, "--set", "model.size=0.1"], ["model.size = 0.1", "crane.msh"]),
         "no_mesh": (["check", q, "--set", "model.mesh='nope.msh'"], ["model.mesh", "nope.msh"]),
@@ -103,6 +106,34 @@ def _cases(tmp: Path) -> dict[str, tuple[list[str], list[str]]]:
         "fine_ratio_not_dividing": (
             ["run", q, "--set", "coupling.fine_ratio=30"],
             ["coupling.fine_ratio = 30", "divide it"],
+        ),
+        "gravity_up": (
+            ["check", q, "--set", "loading.gravity=[0.0, 0.0, 9.81]"],
+            ["loading.gravity = [0.0, 0.0, 9.81]", "must point down"],
+        ),
+        "gravity_along_y": (
+            ["check", q, "--set", "loading.gravity=[0.0, -9.81, 0.0]"],
+            ["loading.gravity", "must point down"],
+        ),
+        "E_in_MPa": (
+            ["check", q, "--set", "material.E=2.1e5"],
+            ["material: the wave speed", "5.19 m/s", "E in Pa"],
+        ),
+        "rho_in_t_per_mm3": (
+            ["check", q, "--set", "material.rho=7.85e-9"],
+            ["material: the wave speed", "kg/m³"],
+        ),
+        "point_off_the_structure": (
+            ["check", q, "--set", "spectra.points.far=[0.0, 2.0, 15.0]"],
+            ["spectra.points.far", "14.5 m from the nearest point"],
+        ),
+        "same_subdomain_name": (
+            ["check", str(same_name)],
+            ["[[subdomain]] name 'contact_zones' is given to 2 subdomains"],
+        ),
+        "one_macro_step_beyond_the_end": (
+            ["check", q, "--set", "time.end=1e-4"],
+            ["time.end = 0.0001 s", "shorter than one macro step", "coupling.ratio"],
         ),
         "sample_interval": (
             ["run", q, "--set", "output.sample_interval=1e-9"],
@@ -156,7 +187,8 @@ def test_check_names_what_will_run(capsys) -> None:
     out = capsys.readouterr().out
     if COMM.rank == 0:
         assert (
-            "ok (crane; gc, m = 100: cd-lagrange on contact_zones, newmark on structure; "
+            "ok (crane; gc-mean, m = 100 (10 at impacts): cd-lagrange on contact_zones, newmark "
+            "on structure; "
             "Δt = 1.3026e-06 s (0.9× critical 1.4473e-06 s))"
         ) in out, out
     assert main(["check", str(QUICK), "--set", "coupling.method='monolithic'"]) == 0
@@ -428,3 +460,13 @@ def test_foreign_launcher_refused_before_mpi_starts(tmp_path) -> None:
     res = subprocess.run(cmd, capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path)
     assert res.returncode == 2, res.stderr
     assert "foreign MPI launcher (Open MPI" in _one_error_line_per_rank(res, 2)
+
+
+def test_version(capsys) -> None:
+    """`crane-fem --version` prints the package's version and exits 0."""
+    from crane_fem import __version__
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.strip() == f"crane-fem {__version__}"

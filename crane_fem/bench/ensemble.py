@@ -181,6 +181,24 @@ def conditioning(members: list[list[Check]]) -> dict[tuple[str, str], float]:
     return out
 
 
+def _present(path: Path, settings: dict[str, Any]) -> dict[str, Any]:
+    """``settings`` without the removals (None) of keys the scenario file does not have (a
+    scene that does not refine has no ``coupling.fine_ratio`` to remove)."""
+    import tomllib
+
+    data = tomllib.loads(path.read_text(encoding="utf-8"))
+
+    def has(key: str) -> bool:
+        node: Any = data
+        for part in key.split("."):
+            if not isinstance(node, dict) or part not in node:
+                return False
+            node = node[part]
+        return True
+
+    return {k: v for k, v in settings.items() if v is not None or has(k)}
+
+
 def _member_runs(scene: Scene, runs: Path) -> tuple[Outcome, list[Outcome]]:
     """The fully explicit reference and the other members (collective)."""
     path = demo(scene.name)
@@ -222,7 +240,7 @@ def scene_report(scene: Scene, out: Path) -> tuple[str, list[dict[str, Any]]]:
         run_case(
             label,
             path,
-            {**scene.settings, "output.xdmf": False, **st},
+            _present(path, {**scene.settings, "output.xdmf": False, **st}),
             runs / stem / label.replace(" ", "_").replace(",", ""),
         )
         for label, st in scene.methods

@@ -11,7 +11,7 @@ import numpy as np
 from crane_fem.coupling import MacroRecord
 from crane_fem.monitors.vertices import owned_vertices
 from crane_fem.pipeline import Simulation
-from crane_fem.points import GroundAcceleration, PointMotions, default_points
+from crane_fem.points import GroundAcceleration, PointMotions, check_points, default_points
 
 __all__ = ["MeasuredPoints", "create_measured_points"]
 
@@ -99,6 +99,7 @@ def create_measured_points(sim: Simulation, out: Path) -> MeasuredPoints | None:
     if not points:
         return None
     ids, xyz = owned_vertices(sim)
+    check_points(points, xyz, sim.mesh.comm)
     md = sim.models
     motions = PointMotions(
         points, md.explicit, md.implicit, xyz, ids, GroundAcceleration(sc), sim.mesh.comm

@@ -171,6 +171,12 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
     n_steps = max(1, math.ceil(sc.time.end / dt - 1e-9))
     if coupled:
         dT = dt * ratio
+        if dT > sc.time.end * (1.0 + 1e-9):
+            raise ScenarioError(
+                f"time.end = {sc.time.end:g} s is shorter than one macro step ΔT = "
+                f"coupling.ratio × Δt = {ratio} × {dt:.4e} = {dT:.4e} s: lower coupling.ratio "
+                "or lengthen time.end"
+            )
         n_macro = max(1, math.ceil(sc.time.end / dT - 1e-9))
         end = n_macro * ratio
         sample = sample_steps(sc, dt, ratio)

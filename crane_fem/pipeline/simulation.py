@@ -108,6 +108,7 @@ class SimulationCheck:
     implicit: tuple[str, list[str]] | None
     dt: float
     dt_critical: float
+    fine_ratio: int | None = None
 
     def describe(self) -> str:
         """``gc, m = 100: cd-lagrange on contact_zones, newmark on structure; Δt = …`` or
@@ -115,7 +116,8 @@ class SimulationCheck:
         sides = [s for s in (self.explicit, self.implicit) if s is not None]
         if self.explicit is not None and self.implicit is not None:
             parts = ", ".join(f"{scheme} on {', '.join(names)}" for scheme, names in sides)
-            head = f"{self.method}, m = {self.ratio}: {parts}"
+            fine = f" ({self.fine_ratio} at impacts)" if self.fine_ratio else ""
+            head = f"{self.method}, m = {self.ratio}{fine}: {parts}"
         else:
             head = f"monolithic {sides[0][0]}"
         return (
@@ -151,6 +153,18 @@ def _read_records(sc: Scenario, comm: MPI.Comm) -> None:
         raise ScenarioError(errors[0])
 
 
+def _check_points(sc: Scenario, mesh: MeshStage) -> None:
+    """The measured points of ``[spectra]`` on the structure (collective)."""
+    import dolfinx.mesh
+
+    from crane_fem.points import check_points, default_points
+
+    m = mesh.tagged.mesh
+    local = np.arange(m.topology.index_map(0).size_local, dtype=np.int32)
+    xyz = np.asarray(m.geometry.x)[dolfinx.mesh.entities_to_geometry(m, 0, local).ravel()]
+    check_points(default_points(sc), xyz, mesh.comm)
+
+
 def check_simulation(sc: Scenario, comm: MPI.Comm) -> SimulationCheck:
     """What ``run`` refuses before integrating, refused without integrating: a missing,
     unknown or malformed record, a missing or foreign mesh, Δt above the explicit side's
@@ -171,6 +185,7 @@ def check_simulation(sc: Scenario, comm: MPI.Comm) -> SimulationCheck:
     models = build_models(sc, mesh)
     try:
         constraints = build_constraints(sc, mesh, models)
+        _check_points(sc, mesh)
         spec = next((s for s in sc.subdomain if s.scheme == "newmark-reduced"), None)
         if spec is not None and spec.modes is not None and models.implicit is not None:
             _, n_int = interior_dofs(models.implicit.model, constraints.l_implicit)
@@ -183,8 +198,9 @@ def check_simulation(sc: Scenario, comm: MPI.Comm) -> SimulationCheck:
         if not models.coupled and sc.coupling is not None and sc.coupling.method == "monolithic":
             only = (sc.coupling.monolithic_scheme, ["all"])
             explicit, implicit = (only, None) if explicit is not None else (None, only)
+        fine = sc.coupling.fine_ratio if sc.coupling is not None and models.coupled else None
         return SimulationCheck(
-            models.method, models.ratio, explicit, implicit, models.dt, models.dt_critical
+            models.method, models.ratio, explicit, implicit, models.dt, models.dt_critical, fine
         )
     finally:
         models.destroy()

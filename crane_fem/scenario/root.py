@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Annotated
 
 from pydantic import Field, model_validator
@@ -38,6 +39,9 @@ from crane_fem.scenario.sections import (
 
 __all__ = ["Scenario"]
 
+
+#: m/s: the plausible range of a structure's bar wave speed √(E/ρ) in SI units.
+WAVE_SPEED = (20.0, 20000.0)
 
 class Scenario(Section):
     """A whole scenario file."""
@@ -151,11 +155,36 @@ class Scenario(Section):
                     "coupling.method: 'ph' needs contact-free explicit subdomains, but the "
                     "crane's wheels rest on their rails from t = 0; use 'gc' (or 'gc-mean')"
                 )
+        if not isinstance(mdl, BarModel):
+            # SI units: a structure's bar wave speed √(E/ρ) lies between a soft elastomer's
+            # (tens of m/s) and beryllium's (13 km/s); E in MPa or ρ in t/mm³ fall far outside.
+            c = math.sqrt(self.material.E / self.material.rho)
+            if not WAVE_SPEED[0] <= c <= WAVE_SPEED[1]:
+                raise ValueError(
+                    f"material: the wave speed √(E/ρ) = {c:.3g} m/s (E = {self.material.E:g}, "
+                    f"ρ = {self.material.rho:g}) is outside [{WAVE_SPEED[0]:g}, "
+                    f"{WAVE_SPEED[1]:g}] m/s: give E in Pa and ρ in kg/m³ (steel: 2.1e11, 7800)"
+                )
+        names = [s.name for s in self.subdomain]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise ValueError(
+                f"[[subdomain]] name {twice[0]!r} is given to {names.count(twice[0])} "
+                "subdomains: each needs its own (outputs are named after it)"
+            )
         if isinstance(mdl, CraneModel):
             try:
                 mdl.geometry().validate()
             except ScenarioError as exc:  # name the scenario key, not the dataclass field
                 raise ValueError(str(exc).replace("geometry.", "model.")) from None
+            grav = self.loading.gravity
+            down = grav[2] < 0.0 and abs(grav[2]) >= 10.0 * max(abs(grav[0]), abs(grav[1]))
+            if any(grav) and not down:
+                # The static preload presses the trolley onto its rails: gravity along −z.
+                raise ValueError(
+                    f"loading.gravity = {list(grav)} must point down, along −z (a crane's trolley "
+                    "rests on its rails by its weight: z is up, e.g. [0, 0, -9.81]), or be zero"
+                )
         if self.loading.tip_traction is not None and not isinstance(mdl, BoxBeamModel):
             raise ValueError("loading.tip_traction applies to model.kind 'box_beam' only")
         cpl = self.coupling
