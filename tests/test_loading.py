@@ -39,6 +39,46 @@ def test_csv_roundtrip_and_errors(tmp_path) -> None:
         read_csv(tmp_path / "none.csv")
 
 
+@pytest.mark.parametrize("sep", ["; ", " ", "\t", ";"])
+def test_csv_of_other_separators(tmp_path, sep) -> None:
+    """A 201-row record with semicolons, spaces or tabs between its columns (a spreadsheet's
+    or a logger's export) reads as the comma one does."""
+    t = np.linspace(0.0, 2.0, 201)
+    a = np.sin(7.0 * t)
+    path = tmp_path / "rec.csv"
+    path.write_text(
+        "t" + sep + "a\n" + "".join(f"{float(x)!r}{sep}{float(y)!r}\n" for x, y in zip(t, a))
+    )
+    rec = read_csv(path)
+    assert rec.t.size == 201
+    np.testing.assert_allclose(rec.a, a, rtol=0, atol=0)
+
+
+def test_csv_with_a_third_column_refused(tmp_path) -> None:
+    """A third column (another component, a velocity) is refused naming the line: which one
+    is the acceleration cannot be guessed."""
+    path = tmp_path / "three.csv"
+    path.write_text("t, ax, ay\n0.0, 0.1, 0.2\n0.01, 0.3, 0.4\n")
+    with pytest.raises(ScenarioError, match=r"three.csv: line 2: 3 columns; a record has two"):
+        read_csv(path)
+
+
+def test_csv_units_key(tmp_path) -> None:
+    """``loading.ground_motion.units = "g"`` reads a .csv in g; on another record it is
+    refused."""
+    from conftest import make_scenario
+
+    from crane_fem.pipeline.loads import ground_motion
+
+    path = tmp_path / "g.csv"
+    path.write_text("0.0, 0.0\n0.01, 0.5\n0.02, 0.0\n")
+    sc = make_scenario(loading={"ground_motion": {"record": str(path), "units": "g"}})
+    gm = sc.loading.ground_motions[0]
+    assert ground_motion(gm)(0.01) == pytest.approx(0.5 * 9.80665)
+    with pytest.raises(Exception, match="units applies to a .csv record"):
+        make_scenario(loading={"ground_motion": {"record": "el_centro_1940_up", "units": "g"}})
+
+
 def test_at2_header_errors(tmp_path) -> None:
     path = tmp_path / "x.AT2"
     path.write_text("A\nB\nACCELERATION TIME SERIES IN UNITS OF G\nNPTS= 3, DT= .01 SEC\n1 2\n")

@@ -131,6 +131,10 @@ def _cases(tmp: Path) -> dict[str, tuple[list[str], list[str]]]:
             ["check", str(same_name)],
             ["[[subdomain]] name 'contact_zones' is given to 2 subdomains"],
         ),
+        "record_ends_before_the_run": (
+            ["run", q, "--set", "time.end=0.1"],
+            ["loading.ground_motion", "lasts 0.06 s, less than time.end = 0.1 s"],
+        ),
         "one_macro_step_beyond_the_end": (
             ["check", q, "--set", "time.end=1e-4"],
             ["time.end = 0.0001 s", "shorter than one macro step", "coupling.ratio"],

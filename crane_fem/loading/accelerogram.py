@@ -124,7 +124,8 @@ def read_at2(path: str | Path) -> Accelerogram:
 
 
 def read_csv(path: str | Path, units: str = "m/s2") -> Accelerogram:
-    """Read a two-column CSV (t in s, a in ``units``: 'm/s2' or 'g'); a header row is allowed.
+    """Read a two-column record (t in s, a in ``units``: 'm/s2' or 'g'), its columns separated
+    by commas, semicolons, tabs or spaces; a header row is allowed, a third column is not.
 
     Raises:
         ScenarioError: missing file, bad columns, a value that is not a finite number (NaN,
@@ -141,7 +142,7 @@ def read_csv(path: str | Path, units: str = "m/s2") -> Accelerogram:
         raise ScenarioError(f"{p}: cannot read the accelerogram ({exc})") from None
     rows: list[list[float]] = []
     for k, line in enumerate(text.splitlines()):
-        parts = [s.strip() for s in line.split(",")]
+        parts = [s for s in re.split(r"[,;\s]+", line.strip()) if s]
         if not line.strip() or line.startswith("#"):
             continue
         try:
@@ -150,6 +151,11 @@ def read_csv(path: str | Path, units: str = "m/s2") -> Accelerogram:
             if rows:
                 raise ScenarioError(f"{p}: line {k + 1}: expected 't, a' numbers") from None
             continue  # a header row
+        if len(parts) != 2:
+            raise ScenarioError(
+                f"{p}: line {k + 1}: {len(parts)} columns; a record has two, 't, a' (time in s, "
+                "acceleration)"
+            )
         if not all(math.isfinite(x) for x in row):
             raise ScenarioError(f"{p}: line {k + 1}: {line.strip()!r} is not a finite number")
         rows.append(row)

@@ -40,7 +40,7 @@ def _record(gm: GroundMotion) -> Accelerogram:
     elif record.lower().endswith(".at2"):
         rec = read_at2(record)
     elif record.lower().endswith(".csv"):
-        rec = read_csv(record)
+        rec = read_csv(record, gm.units or "m/s2")
     else:
         raise ScenarioError(
             f"loading.ground_motion.record: {record!r} is neither a bundled record "
@@ -49,13 +49,22 @@ def _record(gm: GroundMotion) -> Accelerogram:
     return rec.scaled(gm.scale)
 
 
-def ground_motion(gm: GroundMotion) -> GroundMotionHistory:
-    """a_g at run time t: the record from ``gm.start`` on, tapered in over ``gm.taper``."""
+def ground_motion(gm: GroundMotion, end: float | None = None) -> GroundMotionHistory:
+    """a_g at run time t: the record from ``gm.start`` on, tapered in over ``gm.taper``;
+    with the run's ``end`` (s), a record that stops before it is refused (the ground would
+    stand still after it, silently)."""
     record = _record(gm)
     if gm.start >= record.duration:
         raise ScenarioError(
             f"loading.ground_motion.start = {gm.start} s is past the end of the record "
             f"({record.duration:g} s)"
+        )
+    left = record.duration - gm.start
+    if end is not None and left < end * (1.0 - 1e-9) - 1e-12:
+        raise ScenarioError(
+            f"loading.ground_motion: the record {gm.record!r} from start = {gm.start:g} s "
+            f"lasts {left:.4g} s, less than time.end = {end:g} s (the ground would stand still "
+            "after it): shorten time.end or start the window earlier"
         )
     return GroundMotionHistory(record, gm.start, gm.taper)
 
@@ -100,7 +109,7 @@ def body_load(sc: Scenario, mesh: MeshStage, sub: Subdomain) -> AffineLoad:
     if motions:
         histories, units = [], []
         for gm in motions:
-            histories.append(ground_motion(gm))
+            histories.append(ground_motion(gm, sc.time.end))
             d = np.asarray(gm.direction, dtype=np.float64)
             d = d / np.linalg.norm(d)
             unit = -(m.mass.reshape(-1, bs) * d[None, :bs]).ravel()  # −M ι per unit a_g

@@ -145,7 +145,7 @@ def _read_records(sc: Scenario, comm: MPI.Comm) -> None:
     error: str | None = None
     try:
         for gm in sc.loading.ground_motions:
-            ground_motion(gm)
+            ground_motion(gm, sc.time.end)
     except ScenarioError as exc:
         error = str(exc)
     errors = [e for e in comm.allgather(error) if e is not None]

@@ -6,7 +6,7 @@
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
@@ -19,7 +19,8 @@ class GroundMotion(Section):
     """Seismic ground acceleration a_g(t) (relative formulation: body force −ρ a_g(t) direction).
 
     ``record``: a bundled record name (``el_centro_1940_up``, ``el_centro_1940_180``,
-    ``el_centro_1940_270``), a path to a PEER ``.AT2`` / ``.csv`` (t, a in m/s²) file, or
+    ``el_centro_1940_270``), a path to a PEER ``.AT2`` / ``.csv`` (t, a in ``units``: m/s² by
+    default, or g; columns separated by commas, semicolons, tabs or spaces) file, or
     ``synthetic`` (band-limited enveloped noise: ``pga`` m/s², ``duration`` s, ``band`` Hz,
     ``seed``); several components are given as ``[[loading.ground_motion]]`` entries;
     ``scale`` multiplies it; ``direction`` is the unit vector of the shaking. ``start`` (s)
@@ -36,9 +37,16 @@ class GroundMotion(Section):
     duration: PositiveFloat | None = None
     band: Annotated[list[PositiveFloat], Field(min_length=2, max_length=2)] = [0.5, 15.0]
     seed: int = 0
+    #: A .csv record's acceleration unit: "m/s2" (the default) or "g".
+    units: Literal["m/s2", "g"] | None = None
 
     @model_validator(mode="after")
     def _synthetic(self) -> GroundMotion:
+        if self.units is not None and not self.record.lower().endswith(".csv"):
+            raise ValueError(
+                "units applies to a .csv record (an .AT2 file is in g by its format, the "
+                "bundled and synthetic records in m/s²)"
+            )
         synth = self.record == "synthetic"
         if synth and (self.pga is None or self.duration is None):
             raise ValueError("record 'synthetic' needs pga (m/s²) and duration (s)")

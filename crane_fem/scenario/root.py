@@ -43,6 +43,7 @@ __all__ = ["Scenario"]
 #: m/s: the plausible range of a structure's bar wave speed √(E/ρ) in SI units.
 WAVE_SPEED = (20.0, 20000.0)
 
+
 class Scenario(Section):
     """A whole scenario file."""
 
