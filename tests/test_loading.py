@@ -47,7 +47,10 @@ def test_csv_of_other_separators(tmp_path, sep) -> None:
     a = np.sin(7.0 * t)
     path = tmp_path / "rec.csv"
     path.write_text(
-        "t" + sep + "a\n" + "".join(f"{float(x)!r}{sep}{float(y)!r}\n" for x, y in zip(t, a))
+        "t"
+        + sep
+        + "a\n"
+        + "".join(f"{float(x)!r}{sep}{float(y)!r}\n" for x, y in zip(t, a, strict=True))
     )
     rec = read_csv(path)
     assert rec.t.size == 201
@@ -75,7 +78,7 @@ def test_csv_units_key(tmp_path) -> None:
     sc = make_scenario(loading={"ground_motion": {"record": str(path), "units": "g"}})
     gm = sc.loading.ground_motions[0]
     assert ground_motion(gm)(0.01) == pytest.approx(0.5 * 9.80665)
-    with pytest.raises(Exception, match="units applies to a .csv record"):
+    with pytest.raises(Exception, match=r"units applies to a \.csv record"):
         make_scenario(loading={"ground_motion": {"record": "el_centro_1940_up", "units": "g"}})
 
 
