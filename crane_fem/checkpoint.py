@@ -28,6 +28,7 @@ import hashlib
 import json
 import shutil
 import time
+import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -186,7 +187,15 @@ def read_checkpoint(restart: Path, comm: MPI.Comm, sc: Scenario) -> Checkpoint:
                 f"--restart: no checkpoint in {restart} (written by runs with "
                 "output.checkpoint_every)"
             )
-        meta: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
+        try:
+            meta: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
+            if not isinstance(meta, dict) or "dir" not in meta:
+                raise ValueError("not a checkpoint record")
+        except (ValueError, UnicodeDecodeError) as exc:
+            raise ValueError(
+                f"--restart: {path} is damaged ({' '.join(str(exc).split())}); its run was "
+                "cut while writing it? restart from an earlier checkpoint directory, or run anew"
+            ) from None
         if meta.get("format") != FORMAT:
             raise ValueError(f"--restart: {path}: checkpoint format {meta.get('format')}")
         if meta["nranks"] != comm.size:
@@ -208,8 +217,11 @@ def read_checkpoint(restart: Path, comm: MPI.Comm, sc: Scenario) -> Checkpoint:
     try:
         with np.load(path, allow_pickle=False) as data:
             state = unflatten({k: data[k] for k in data.files})
-    except (OSError, ValueError) as exc:
-        error = f"--restart: cannot read {path}: {' '.join(str(exc).split())}"
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        error = (
+            f"--restart: cannot read {path} ({' '.join(str(exc).split()) or type(exc).__name__})"
+            ": the checkpoint is damaged or incomplete"
+        )
     raise_if_any(comm, error)
     return Checkpoint(meta, state)
 

@@ -231,7 +231,14 @@ def _run(sc: Scenario, args: argparse.Namespace, comm: Any) -> int:
         result = run_scenario(sc, outdir, comm, progress=args.progress, restart=restart)
     s = result.summary
     if rank0:
-        if s.get("ratio", 1) > 1:  # coupled: macro steps of m micro steps
+        ad = s.get("adaptive")
+        if ad:  # the macro step refined at impacts: how many of each
+            steps = (
+                f"{s['steps_done']} macro steps ({ad['coarse_steps']} of ΔT = {s['dT']:.4e} s, "
+                f"m = {ad['coarse_ratio']}; {ad['fine_steps']} of m = {ad['fine_ratio']} around "
+                f"impacts), {s['micro_steps_done']} micro steps of Δt = {s['dt']:.4e} s ("
+            )
+        elif s.get("ratio", 1) > 1:  # coupled: macro steps of m micro steps
             steps = (
                 f"{s['steps']} macro steps of ΔT = {s['dT']:.4e} s (m = {s['ratio']}, "
                 f"{s['micro_steps']} micro steps of Δt = {s['dt']:.4e} s, "

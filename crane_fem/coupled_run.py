@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -25,7 +26,7 @@ from crane_fem.checkpoint import (
 )
 from crane_fem.coupling import MacroRecord, MacroStep
 from crane_fem.errors import RunInterrupted, ScenarioError, UnstableRunError
-from crane_fem.io import HistoryWriter, XDMFSeries
+from crane_fem.io import HistoryWriter, XDMFSeries, write_summary
 from crane_fem.io.results import write_results_csv
 from crane_fem.monitors import HistoryRows, Monitors, create_monitors
 from crane_fem.pipeline import Simulation, create_simulation
@@ -281,6 +282,13 @@ def run_coupled(
             assert restart is not None
             resumed = _resume(ckpt, sim, b, Path(restart))
             summary["restart"] = {"from": str(restart), "step": ckpt.step, "t": ckpt.meta["t"]}
+            if comm.rank == 0:
+                print(
+                    f"crane-fem: continuing from the checkpoint of macro step {ckpt.step} "
+                    f"(t = {ckpt.meta['t']:.6g} s) in {restart}",
+                    file=sys.stderr,
+                    flush=True,
+                )
         resume = (Path(restart), b.frames) if restart is not None else None
         writers = _xdmf_writers(sc, sim, out, resume)
     except BaseException:
@@ -289,6 +297,16 @@ def run_coupled(
         raise
     grid = it.system.grid
     n_s = grid.sample
+    # A summary from the start: a run killed outright (SIGKILL, out of memory) leaves one that
+    # says it did not end; the end of the run replaces it.
+    write_summary(
+        out / "summary.json",
+        {
+            **summary,
+            "diagnosis": "the run is under way, or was killed before it could write its end",
+        },
+        comm,
+    )
     bar = progress_bar(sc, comm, progress, grid.end, "step")
     comm.barrier()
     t_loop = time.perf_counter()

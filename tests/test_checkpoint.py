@@ -390,3 +390,59 @@ def test_an_interrupted_write_leaves_the_previous_checkpoint(shared_tmp) -> None
     write_checkpoint(shared_tmp, COMM, {**meta, "step": 4}, {"x": np.zeros(2)})
     assert read_checkpoint(shared_tmp, COMM, sc).step == 4
     assert sorted(p.name for p in root.iterdir()) == ["latest.json", "step_00000004"]
+
+
+def test_damaged_checkpoints_refused_naming_the_file(shared_tmp) -> None:
+    """A restart from a cut `latest.json` or a truncated `rank<r>.npz` (a run killed while
+    writing them) is refused with one line naming the file, not a parser's traceback."""
+    out = shared_tmp / "damaged"
+    _run(_pulse("gc", 0.2, 25), out)
+    latest = out / CHECKPOINT_DIR / "latest.json"
+    meta = json.loads(latest.read_text())
+    npz = out / CHECKPOINT_DIR / str(meta["dir"]) / f"rank{COMM.rank}.npz"
+    COMM.barrier()
+    good = npz.read_bytes()
+    COMM.barrier()
+    npz.write_bytes(good[: len(good) // 3])
+    COMM.barrier()
+    with pytest.raises(ScenarioError, match=rf"cannot read .*rank{COMM.rank}\.npz.*damaged"):
+        _run(_pulse("gc", 0.3, 25), out, restart=out)
+    COMM.barrier()
+    npz.write_bytes(good)
+    if COMM.rank == 0:
+        latest.write_text(latest.read_text()[:20])
+    COMM.barrier()
+    with pytest.raises(ScenarioError, match=r"latest\.json is damaged"):
+        _run(_pulse("gc", 0.3, 25), out, restart=out)
+
+
+def test_summary_written_from_the_start(shared_tmp, monkeypatch) -> None:
+    """While the time loop runs, summary.json already says the run has not ended (status
+    "running"): a run killed outright (SIGKILL) leaves that, not nothing."""
+    from crane_fem.coupling.gravouil_combescure import GravouilCombescure
+
+    step = GravouilCombescure.step
+    seen: list[dict[str, Any]] = []
+    out = shared_tmp / "killed"
+
+    def look(self: GravouilCombescure) -> Any:
+        if self.system.n == 10 and not seen:
+            seen.append(json.loads((out / "summary.json").read_text()))
+        return step(self)
+
+    monkeypatch.setattr(GravouilCombescure, "step", look)
+    _run(_pulse("gc", 0.1), out)
+    assert seen and seen[0]["status"] == "running"
+    assert "killed" in seen[0]["diagnosis"]
+    assert json.loads((out / "summary.json").read_text())["status"] == "completed"
+
+
+def test_restart_says_where_it_continues(shared_tmp, capfd) -> None:
+    """A restart names the macro step, time and directory it continues from."""
+    out = shared_tmp / "said"
+    _run(_pulse("gc", 0.2, 25), out)
+    capfd.readouterr()
+    _run(_pulse("gc", 0.3, 25), out, restart=out)
+    err = capfd.readouterr().err
+    if COMM.rank == 0:
+        assert f"continuing from the checkpoint of macro step 25 (t = 0.125 s) in {out}" in err
