@@ -49,6 +49,8 @@ class ModelStage:
     n_macro: int
     end_steps: int = 0
     sample_steps: int = 1
+    #: The explicit side's largest frequency (rad/s): its undamped critical step is 2/ω.
+    omega_max: float = 0.0
 
     @property
     def coupled(self) -> bool:
@@ -165,7 +167,8 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
     # Δt from the explicit subdomain's own critical step.
     step_sub = explicit if explicit is not None else implicit
     assert step_sub is not None
-    dt_critical = critical_time_step(max_frequency(step_sub.model), *rayleigh)
+    omega_max = max_frequency(step_sub.model)
+    dt_critical = critical_time_step(omega_max, *rayleigh)
     dt = _time_steps(sc, explicit, dt_critical)
     coupled = explicit is not None and implicit is not None
     n_steps = max(1, math.ceil(sc.time.end / dt - 1e-9))
@@ -203,4 +206,5 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
         n_macro,
         end,
         sample,
+        omega_max,
     )

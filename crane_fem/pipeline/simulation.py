@@ -109,6 +109,11 @@ class SimulationCheck:
     dt: float
     dt_critical: float
     fine_ratio: int | None = None
+    #: The explicit side's undamped critical step 2/ω_max (s), its micro steps to the end
+    #: and its DOFs (global): what a damping key costs.
+    dt_critical_undamped: float = 0.0
+    micro_steps: int = 0
+    dofs_explicit: int = 0
 
     def describe(self) -> str:
         """``gc, m = 100: cd-lagrange on contact_zones, newmark on structure; Δt = …`` or
@@ -120,10 +125,22 @@ class SimulationCheck:
             head = f"{self.method}, m = {self.ratio}{fine}: {parts}"
         else:
             head = f"monolithic {sides[0][0]}"
-        return (
+        text = (
             f"{head}; Δt = {self.dt:.4e} s ({self.dt / self.dt_critical:.3g}× critical "
             f"{self.dt_critical:.4e} s)"
         )
+        shrink = self.dt_critical_undamped / self.dt_critical if self.dt_critical else 1.0
+        if shrink > 1.5:
+            # What the damping's β K term costs: the explicit step at ~13 ns per DOF (the
+            # compiled kernel at the memory bandwidth, benchmarks/RESULTS.md).
+            loop = self.micro_steps * self.dofs_explicit * 13e-9
+            text += (
+                f"; the material's stiffness-proportional damping (β K) makes the critical "
+                f"step {shrink:.3g}× smaller than undamped ({self.dt_critical_undamped:.4e} s): "
+                f"{self.micro_steps} micro steps, a time loop of about {loop:.3g} s on one core "
+                "for the explicit side alone"
+            )
+        return text
 
 
 def _scheme(sc: Scenario, names: list[str], default: str) -> str:
@@ -199,8 +216,20 @@ def check_simulation(sc: Scenario, comm: MPI.Comm) -> SimulationCheck:
             only = (sc.coupling.monolithic_scheme, ["all"])
             explicit, implicit = (only, None) if explicit is not None else (None, only)
         fine = sc.coupling.fine_ratio if sc.coupling is not None and models.coupled else None
+        side = models.explicit or models.implicit
+        assert side is not None
+        dofs = int(side.model.K.getSize()[0])
         return SimulationCheck(
-            models.method, models.ratio, explicit, implicit, models.dt, models.dt_critical, fine
+            models.method,
+            models.ratio,
+            explicit,
+            implicit,
+            models.dt,
+            models.dt_critical,
+            fine,
+            2.0 / models.omega_max if models.omega_max > 0 else models.dt_critical,
+            models.end_steps,
+            dofs,
         )
     finally:
         models.destroy()
