@@ -10,6 +10,7 @@ books of each side and of the interface, the trapezoidal form of the implicit st
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -143,7 +144,8 @@ class MacroRecord:
     #: macro-step multipliers only; ec: Σ ΔT G): momentum one side received and the other
     #: did not. Zero for m = 1, and for ec.
     impulse_defect: float = 0.0
-    #: max |L_E V_E + L_I V_I| at t (m/s): the velocity continuity left, round-off for GC.
+    #: max |L_E V_E + L_I V_I| at t (m/s): the velocity continuity left, round-off for GC;
+    #: evaluated at the sampling instants (NaN at the macro steps between).
     interface_velocity_jump: float = 0.0
     _fields: tuple[FloatArray, FloatArray] | None = None
     #: The implicit side's displacement and velocity at some owned DOFs only (cheap on a
@@ -373,8 +375,12 @@ class CoupledSystem:
             interface_impulse = lam[:n_g] / self.dt if lam.size else np.zeros(0)
         jump = 0.0
         if self.coupled and E is not None and I is not None:
-            w = E.stack.apply(E.v_int)[:n_g] + I.interface_values(I.v)
-            jump = float(np.max(np.abs(w), initial=0.0))
+            # A diagnostic of the history rows: evaluated at the sampling instants only (a
+            # dense product on a reduced side, and a reduction), NaN between.
+            jump = math.nan
+            if self.grid.sampled():
+                w = E.stack.apply(E.v_int)[:n_g] + I.interface_values(I.v)
+                jump = float(np.max(np.abs(w), initial=0.0))
         return MacroRecord(
             self.grid.n,
             self.grid.t,
@@ -458,11 +464,13 @@ class CoupledSystem:
         f1: FloatArray,
         cv0: FloatArray,
         force: FloatArray | None,
+        force_action: FloatArray | None = None,
     ) -> tuple[float, float]:
         """Book the implicit step from (U_0, V_0) to the current state: work of the load and
         of damping with the mean velocity V̄ = ½(V_0 + V_1), energies, and the algorithmic
         energy of Newmark; return the link work ΔT V̄ᵀL_IᵀΛ̄ and its displacement form
-        ΔUᵀL_IᵀΛ̄ for the mean link force ``force`` (None: uncoupled) (collective)."""
+        ΔUᵀL_IᵀΛ̄ for the mean link force ``force`` (None: uncoupled; ``force_action``: its
+        L_IᵀΛ̄ when the caller has it already) (collective)."""
         I = self.I  # noqa: E741
         assert I is not None
         vbar = 0.5 * (vI0 + I.v)
@@ -470,7 +478,7 @@ class CoupledSystem:
         self._cv_cache = (I.v, cv1)  # C V at the end: the next step's C V_0
         link = phys = 0.0
         if force is not None:
-            fl = I.interface_force(force)
+            fl = I.interface_force(force) if force_action is None else force_action
             link = self.dT * I.local_dot(vbar, fl)
             phys = I.local_dot(I.u - uI0, fl)
         kin_old, pot_old = self.i_kin, self.i_int
@@ -523,11 +531,12 @@ class CoupledSystem:
         energy; returns the link work of G on both sides (collective)."""
         I, dT = self.I, self.dT  # noqa: E741
         assert I is not None
-        du = st.du_free + 0.5 * dT * dT * I.link_response(G)
+        fl = I.interface_force(G)  # L_Iᵀ G, once: the response and the work both use it
+        du = st.du_free + 0.5 * dT * dT * I.solve(fl)
         I.accept(st.u0 + du, 2.0 * du / dT - st.v0, I.a)
         self.impulse_I += impulse
         # V̄ = ½(V_0 + V_1) = ΔU/ΔT here, so both link-work forms are Gᵀ L_I ΔU.
-        link_i, _ = self.implicit_balance(st.u0, st.v0, st.f0, st.f1, st.cv0, G)
+        link_i, _ = self.implicit_balance(st.u0, st.v0, st.f0, st.f1, st.cv0, G, fl)
         link = self.explicit_balance(out) + link_i
         self.book_interface(link, link, link)
         self.lam_macro_prev = G.copy()

@@ -1,6 +1,7 @@
 """The monitors of a run with subdomains, built from the simulation and handed the macro
-records in a fixed order: the guards and the contact peaks with every record, the sampled
-ones (measured points, bridge stress, support reactions) in the loop's output time."""
+records in a fixed order: the guard and the contact peaks with every record, the sampled
+ones (wheel slip, measured points, bridge stress, support reactions) at the sampling
+instants, in the loop's output time."""
 
 from __future__ import annotations
 
@@ -38,16 +39,17 @@ class Monitors:
         return [(k, m) for k in names if (m := getattr(self, k)) is not None]
 
     def watch(self, rec: MacroRecord) -> None:
-        """Every record, before the loop books it: the divergence guard, then the wheels'
-        slip (both may stop the run), then the contact peaks of its micro steps."""
-        for _, m in self._present(("growth", "slip", "peaks")):
+        """Every record, before the loop books it: the divergence guard (it may stop the run),
+        then the contact peaks of its micro steps."""
+        for _, m in self._present(("growth", "peaks")):
             m.update(rec, False)
 
     def sample(self, rec: MacroRecord, last: bool) -> None:
         """The records of the sampling instants and the last, in the loop's output time (they
         read whole fields; the stress and reactions every ``stress_every`` samples): the
-        measured points, the bridge stress, the support reactions."""
-        for _, m in self._present(("points", "stress", "supports")):
+        wheels' slip (it may stop the run beyond its pairs' reach), the measured points, the
+        bridge stress, the support reactions."""
+        for _, m in self._present(("slip", "points", "stress", "supports")):
             m.update(rec, last)
 
     @property

@@ -1,5 +1,6 @@
 """The crane wheels' slip on their rails as a macro-step monitor: built from the crane's
-wheel/rail pairs, followed at every record, its peaks merged into the summary's wheels."""
+wheel/rail pairs, followed at the sampling instants, its peaks merged into the summary's
+wheels."""
 
 from __future__ import annotations
 
@@ -16,7 +17,7 @@ __all__ = ["WheelSlipMonitor", "create_wheel_slip"]
 
 
 class WheelSlipMonitor:
-    """:class:`WheelSlip` on the explicit side's field of every macro record (collective; a
+    """:class:`WheelSlip` on the explicit side's field at every sampling instant (collective; a
     wheel beyond its pairs' reach stops the run with :class:`crane_fem.slip.SlipError`)."""
 
     def __init__(self, slip: WheelSlip) -> None:
