@@ -152,6 +152,22 @@ def test_three_component_scene_guides_holds_and_agrees_on_two_ranks(tmp_path) ->
     h1, h2 = read_history(serial / "history.csv"), read_history(par / "history.csv")
     assert_same_histories(h1, h2, 1e-8)
     assert h1["friction_dissipated"][-1] > 0.0
+    # Slip as an output: each wheel's history, its slip at the end (the trolley's net drift is
+    # their mean) and the intervals where it slid (the landing's slide along the rails among
+    # them), within the run.
+    drift = np.zeros(2)
+    for k, w in s1["wheels"].items():
+        along = h1[f"wheel{k}_slip_along"]
+        assert np.max(np.abs(along)) == pytest.approx(w["max_slip_along_m"], rel=1e-12)
+        assert w["final_slip_along_m"] == along[-1]
+        assert w["final_slip_across_m"] == h1[f"wheel{k}_slip_across"][-1]
+        drift += [w["final_slip_across_m"], w["final_slip_along_m"]] / np.float64(4)
+        spans = np.array(w["sliding_intervals"])
+        assert spans.size and np.all(spans[:, 1] >= spans[:, 0])
+        assert 0.0 <= spans[0, 0] and spans[-1, 1] <= h1["t"][-1]
+        assert w["sliding_time_s"] == pytest.approx(float(np.sum(spans[:, 1] - spans[:, 0])))
+    np.testing.assert_allclose(s1["trolley_drift_m"], drift, rtol=1e-12, atol=1e-15)
+    assert abs(s1["trolley_drift_m"][1]) > 0.5 * REACH  # it slid along, by ~10 mm
 
 
 def test_frictionless_free_wheels_stop_the_three_component_run(shared_tmp) -> None:

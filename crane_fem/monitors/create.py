@@ -56,7 +56,7 @@ class Monitors:
     def columns(self) -> list[str]:
         """The history columns of the sampled monitors: the measured points' (with the
         ground's acceleration), the support forces, the bridge's largest stress."""
-        sampled = (self.points, self.supports, self.stress)
+        sampled = (self.points, self.supports, self.stress, self.slip)
         return [c for m in sampled if m is not None for c in m.columns]
 
     def history_row(self, t: float) -> dict[str, float]:
@@ -65,7 +65,7 @@ class Monitors:
         row: dict[str, float] = {}
         if self.points is not None:
             row.update(self.points.history_row(t))
-        for m in (self.supports, self.stress):
+        for m in (self.supports, self.stress, self.slip):
             if m is not None:
                 row.update(m.history_row())
         return row

@@ -1,9 +1,11 @@
 """The crane wheels' slip on their rails as a macro-step monitor: built from the crane's
-wheel/rail pairs, followed at the sampling instants, its peaks merged into the summary's
-wheels."""
+wheel/rail pairs, followed at the sampling instants: its history columns, its peaks, the
+slip at the end (the trolley's net drift) and the intervals where a wheel slides, merged into
+the summary's wheels."""
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import numpy as np
@@ -13,7 +15,11 @@ from crane_fem.monitors.vertices import owned_vertices
 from crane_fem.pipeline import Simulation
 from crane_fem.slip import WheelSlip, pair_reach
 
-__all__ = ["WheelSlipMonitor", "create_wheel_slip"]
+__all__ = ["SLIDING_SPEED", "WheelSlipMonitor", "create_wheel_slip"]
+
+#: m/s: a wheel slides while its mean slip changes faster than this between two sampling
+#: instants (a braked wheel's creep on a rocking contact stays well below it).
+SLIDING_SPEED = 1e-3
 
 
 class WheelSlipMonitor:
@@ -22,23 +28,79 @@ class WheelSlipMonitor:
 
     def __init__(self, slip: WheelSlip) -> None:
         self.slip = slip
+        n = slip.n_wheels
+        #: The last sample's mean slip (across, along) of each wheel (m) and its time.
+        self.last = np.zeros((n, 2))
+        self.t_last = 0.0
+        #: Per wheel: whether it slides now, since when, and its finished sliding intervals.
+        self.sliding = np.zeros(n, dtype=bool)
+        self.since = np.zeros(n)
+        self.intervals: list[list[list[float]]] = [[] for _ in range(n)]
+
+    @property
+    def columns(self) -> list[str]:
+        """The history columns: each wheel's mean slip across (x) and along (y) its rail."""
+        n = self.slip.n_wheels
+        return [f"wheel{k + 1}_slip_{d}" for k in range(n) for d in ("across", "along")]
+
+    def history_row(self) -> dict[str, float]:
+        return dict(zip(self.columns, self.last.ravel().tolist(), strict=True))
 
     def update(self, rec: MacroRecord, last: bool) -> None:
         assert rec.explicit_u is not None
-        self.slip.update(rec.t, rec.explicit_u)
+        slip = self.slip.update(rec.t, rec.explicit_u)
+        dt = rec.t - self.t_last
+        if dt > 0.0:
+            speed = np.linalg.norm(slip - self.last, axis=1) / dt
+            now = speed > SLIDING_SPEED
+            for k in np.flatnonzero(now & ~self.sliding):
+                self.since[k] = self.t_last
+            for k in np.flatnonzero(~now & self.sliding):
+                self.intervals[k].append([float(self.since[k]), float(self.t_last)])
+            self.sliding = now
+        self.last, self.t_last = slip, rec.t
 
     def summarize(self, summary: dict[str, Any]) -> None:
-        """Each wheel's slip peaks into its row of the summary's ``wheels`` (if the contact
-        peaks made one)."""
-        if "wheels" in summary:
-            for k, slip in self.slip.table().items():
-                summary["wheels"][k].update(slip)
+        """Each wheel's slip into its row of the summary's ``wheels`` (if the contact peaks
+        made one): its peaks, its slip at the end and its sliding intervals (an interval
+        under way at the end closes there); and the trolley's net drift at the end, the mean
+        of its wheels' (``trolley_drift_m``: across, along)."""
+        if "wheels" not in summary:
+            return
+        for k, slip in self.slip.table().items():
+            i = int(k) - 1
+            spans = [*self.intervals[i]]
+            if self.sliding[i]:
+                spans.append([float(self.since[i]), float(self.t_last)])
+            slip["final_slip_across_m"] = float(self.last[i, 0])
+            slip["final_slip_along_m"] = float(self.last[i, 1])
+            slip["sliding_intervals"] = spans[:100]
+            slip["sliding_time_s"] = float(sum(b - a for a, b in spans))
+            summary["wheels"][k].update(slip)
+        summary["trolley_drift_m"] = self.last.mean(axis=0).tolist()
 
     def state_dict(self) -> dict[str, Any]:
-        return self.slip.state_dict()
+        state = self.slip.state_dict()
+        starts = [np.asarray(v, dtype=np.float64).reshape(-1, 2) for v in self.intervals]
+        state.update(
+            last=self.last.copy(),
+            t_last=self.t_last,
+            sliding=self.sliding.copy(),
+            since=self.since.copy(),
+            counts=np.array([s.shape[0] for s in starts], dtype=np.int64),
+            intervals=np.concatenate([np.zeros((0, 2)), *starts]),
+        )
+        return state
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.slip.load_state_dict(state)
+        self.last = np.array(state["last"], dtype=np.float64)
+        self.t_last = float(state["t_last"])
+        self.sliding = np.array(state["sliding"], dtype=bool)
+        self.since = np.array(state["since"], dtype=np.float64)
+        flat = np.asarray(state["intervals"], dtype=np.float64).reshape(-1, 2)
+        edges = np.r_[0, np.cumsum(np.asarray(state["counts"], dtype=np.int64))]
+        self.intervals = [flat[a:b].tolist() for a, b in itertools.pairwise(edges)]
 
     def destroy(self) -> None:
         pass
