@@ -55,6 +55,8 @@ def _write_run(
         cols[f"wheel{k}_wheel_vz"] = s * 6e-2 * np.cos(60 * t)
         cols[f"wheel{k}_rail_vz"] = s * 1.2e-2 * np.cos(60 * t)
         cols[f"force_wheel_{k}"] = s * 1.4e3 * np.maximum(np.cos(60 * t), 0.0)
+        cols[f"wheel{k}_slip_across"] = s * 1e-4 * np.sin(30 * t)
+        cols[f"wheel{k}_slip_along"] = s * 5e-3 * t
     if ground:
         cols["ground_az"] = 25.0 * np.sin(2 * np.pi * 20 * t)
         cols["ground_ax"] = 5.0 * np.sin(2 * np.pi * 10 * t)
@@ -173,6 +175,7 @@ def test_plot_parent_dir_writes_figures_and_spectra(tmp_path: Path) -> None:
         "fig7_energy_balance.png",
         "fig8_interface_energy.png",
         "input_motion.png",
+        "slip.png",
         "spectra.png",
     ]
     for p in figures.paths:

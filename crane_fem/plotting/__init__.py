@@ -40,7 +40,13 @@ from crane_fem.plotting.motion import ground_motion_series, input_motion_figure
 from crane_fem.plotting.render import nearest_frame, render_peak, render_runs
 from crane_fem.plotting.response_spectra import spectra_figure
 from crane_fem.plotting.runs import Run, load_runs
-from crane_fem.plotting.wheels import force_figure, group_wheels, pair_figure, wheel_numbers
+from crane_fem.plotting.wheels import (
+    force_figure,
+    group_wheels,
+    pair_figure,
+    slip_figure,
+    wheel_numbers,
+)
 
 __all__ = [
     "Figures",
@@ -102,6 +108,7 @@ def plot_figures(outdir: Path) -> Figures:
     made.append(energy_figure(runs, figdir / "fig7_energy_balance.png"))
     made.append(interface_figure(runs, figdir / "fig8_interface_energy.png"))
     made.append(force_figure(runs, figdir / "contact_forces.png"))
+    made.append(slip_figure(runs, figdir / "slip.png"))
     made.append(spectra_figure(runs, figdir / "spectra.png"))
     made.extend(render_runs(runs, figdir))
     notes = [m for r in runs if (m := r.incomplete_message()) is not None]

@@ -23,6 +23,7 @@ __all__ = [
     "group_label",
     "group_wheels",
     "pair_figure",
+    "slip_figure",
     "wheel_numbers",
 ]
 
@@ -211,3 +212,59 @@ def force_figure(runs: list[Run], path: Path) -> Path | None:
     )
     axes[-1, 0].set_xlabel("t (s)")
     return save(fig, path, figure_title(runs, "contact forces"))
+
+
+def slip_figure(runs: list[Run], path: Path) -> Path | None:
+    """Each wheel's slip on its rail, across (x) and along (y), runs overlaid, with the
+    reach of its contact pairs and its sliding intervals shaded (the first run's); None
+    without slip columns."""
+    import matplotlib.pyplot as plt
+
+    wheels = sorted(
+        int(c[len("wheel") : -len("_slip_along")])
+        for c in runs[0].history
+        if c.startswith("wheel") and c.endswith("_slip_along")
+    )
+    if not wheels:
+        return None
+    fig, axes = plt.subplots(
+        len(wheels),
+        2,
+        figsize=(11, 1.6 + 2.0 * len(wheels)),
+        squeeze=False,
+        sharex=True,
+        layout="constrained",
+    )
+    for row, k in zip(axes, wheels, strict=True):
+        w = (runs[0].summary.get("wheels") or {}).get(str(k), {})
+        for ax, d in zip(row, ("across", "along"), strict=True):
+            col = f"wheel{k}_slip_{d}"
+            for i, run in enumerate(runs):
+                if col in run.history:
+                    ax.plot(
+                        run.history["t"],
+                        1e3 * run.history[col],
+                        color=run_colour(i),
+                        lw=run_width(i),
+                    )
+            reach = w.get("slip_reach_m")
+            if reach:
+                for sign in (-1.0, 1.0):
+                    ax.axhline(sign * 1e3 * reach, color="grey", ls=":", lw=1)
+            for a, b in w.get("sliding_intervals", []):
+                ax.axvspan(a, b, color="tab:orange", alpha=0.12, lw=0)
+            _mark_stops(ax, runs)
+            ax.set_title(f"wheel {k}: slip {d} its rail", fontsize=9, loc="left")
+            ax.set_ylabel("slip (mm)")
+            ax.grid(alpha=0.3)
+    figure_legend(
+        fig,
+        [(r.label, {"color": run_colour(i), "lw": run_width(i)}) for i, r in enumerate(runs)]
+        + [
+            ("reach of the contact pairs", {"color": "grey", "ls": ":"}),
+            ("sliding (first run)", {"color": "tab:orange", "alpha": 0.3, "lw": 6}),
+        ],
+    )
+    for ax in axes[-1]:
+        ax.set_xlabel("t (s)")
+    return save(fig, path, figure_title(runs, "wheel slip on the rails"))
