@@ -36,10 +36,6 @@ class TimeGrid:
         """The current time (s)."""
         return self.i * self.dt
 
-    def time_of(self, i: int) -> float:
-        """The time of micro step ``i`` (s)."""
-        return i * self.dt
-
     @property
     def finished(self) -> bool:
         return self.i >= self.end

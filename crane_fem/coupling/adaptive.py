@@ -226,7 +226,10 @@ class Adaptive(MethodBase):
                 "fine_steps_kept_by": dict(self.kept_fine_by),
             }
         }
-        out.update(self.coarse.method.summary())
+        # The rungs' own entries (gc-mean's identity check): the worst of the two.
+        for key, value in self.coarse.method.summary().items():
+            other = self.fine.method.summary().get(key, value)
+            out[key] = max(value, other) if isinstance(value, float) else value
         return out
 
     def method_state(self) -> dict[str, Any]:
