@@ -14,9 +14,9 @@ explicit side's state, the same on every rank (global gaps, rates and group forc
 - a coarse step in which an open contact point closed is undone and redone on the fine rung,
   so that no impact is ever integrated on the coarse one (a lift-off, smooth, stays coarse);
 - a fine step in which an open point closed, a group's force exceeded the impact level of
-  crane_fem.peaks (``IMPACT_LOAD`` × its static force: a landing's burst, a flange strike),
-  or a frictional point went from stick to slip or back, keeps the fine rung for
-  ``quiet`` seconds more.
+  crane_fem.peaks (``IMPACT_LOAD`` × its static force: a landing's burst, a flange strike —
+  a flange's level is its wheel's), or a contact group started or stopped sliding, keeps the
+  fine rung for ``quiet`` seconds more.
 
 Every sampling instant is a coarse grid time, so the run is sampled at the same instants
 whatever the rungs taken, and a checkpoint is taken between two whole coarse intervals.
