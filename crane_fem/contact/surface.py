@@ -1,0 +1,134 @@
+"""Node-to-surface pairing: contact points against the P1 triangles of a surface, each point
+on the triangle it projects into, its gap and the coefficients of its row from that
+triangle's shape functions (issue 24; docs/theory-notes.md §12).
+
+A point x is paired with the triangle T = (a, b, c) of the surface whose closest point to x
+lies inside T (barycentric coordinates ξ ≥ −tol), the nearest such triangle along its normal;
+its gap is g = n_T · (x − Σ ξ_i x_i), and its normal row, applied to displacements,
+g(u) = g0 + n_T · (u_x − Σ ξ_i u_i): +n_T on the point's DOFs, −ξ_i n_T on each vertex's. Where
+the point sits on a vertex (ξ = e_i), the row is the node-to-node row of that pair. On a flat
+surface, a point crossing the edge shared by two triangles has the same ξ on the edge from
+either side (linear interpolation along it): its gap and its row are continuous.
+
+Re-pairing (:func:`pair_points`) is pure geometry on the current coordinates, called between
+kernel calls at macro-step granularity; not collective (every rank holds the surface's
+triangles it needs).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial import cKDTree
+
+__all__ = ["Pairing", "Surface", "pair_points"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+#: Barycentric tolerance of "inside a triangle" (a point on an edge belongs to both).
+INSIDE_TOL = 1e-10
+
+
+@dataclass(frozen=True)
+class Surface:
+    """P1 triangles of a surface: vertex coordinates (n, 3), triangles (m, 3) as indices into
+    them (oriented: the normal (b − a) × (c − a) points out of the body, towards its
+    contact points), and the global vertex ids (n,) the rows are written on."""
+
+    xyz: FloatArray
+    triangles: IntArray
+    vertex_ids: IntArray
+
+    @property
+    def normals(self) -> FloatArray:
+        """Unit outward normals of the triangles (m, 3)."""
+        a, b, c = (self.xyz[self.triangles[:, i]] for i in range(3))
+        n = np.cross(b - a, c - a)
+        return n / np.linalg.norm(n, axis=1)[:, None]
+
+
+@dataclass(frozen=True)
+class Pairing:
+    """Each contact point's triangle (index into the surface's, −1: none), barycentric
+    coordinates (p, 3), normal (p, 3) and gap (p,) (m)."""
+
+    triangle: IntArray
+    xi: FloatArray
+    normal: FloatArray
+    gap: FloatArray
+
+    @property
+    def paired(self) -> npt.NDArray[np.bool_]:
+        return np.asarray(self.triangle >= 0)
+
+    def row_coefficients(self, surface: Surface) -> tuple[IntArray, FloatArray]:
+        """The surface vertices (p, 3) of each point's row and their coefficients (p, 3, 3):
+        −ξ_i n for vertex i (the point's own coefficient is +n)."""
+        verts = surface.triangles[np.maximum(self.triangle, 0)]
+        coeff = -self.xi[:, :, None] * self.normal[:, None, :]
+        return surface.vertex_ids[verts], coeff
+
+
+def _barycentric(
+    x: FloatArray, a: FloatArray, b: FloatArray, c: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Barycentric coordinates (k, 3) of the projections of points x (k, 3) onto the planes of
+    triangles (a, b, c) (k, 3 each), and the projections (k, 3)."""
+    e1, e2 = b - a, c - a
+    n = np.cross(e1, e2)
+    nn = np.einsum("ij,ij->i", n, n)
+    d = x - a
+    # Projection onto the plane, then Cramer's rule on the in-plane system.
+    dist = np.einsum("ij,ij->i", d, n) / nn
+    p = x - dist[:, None] * n
+    dp = p - a
+    d11 = np.einsum("ij,ij->i", e1, e1)
+    d12 = np.einsum("ij,ij->i", e1, e2)
+    d22 = np.einsum("ij,ij->i", e2, e2)
+    r1 = np.einsum("ij,ij->i", dp, e1)
+    r2 = np.einsum("ij,ij->i", dp, e2)
+    det = d11 * d22 - d12 * d12
+    s = (d22 * r1 - d12 * r2) / det
+    t = (d11 * r2 - d12 * r1) / det
+    return np.column_stack([1.0 - s - t, s, t]), p
+
+
+def pair_points(
+    points: FloatArray, surface: Surface, candidates: int = 8, reach: float = np.inf
+) -> Pairing:
+    """Pair each point (p, 3) with the triangle it projects into (see the module docstring):
+    among the ``candidates`` triangles whose centroids are nearest, those that contain its
+    projection, the one nearest along its normal; a point with none within ``reach`` (m) of
+    its plane is left unpaired (triangle −1, gap +inf). Not collective."""
+    tri = surface.triangles
+    x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    n_p = x.shape[0]
+    out_t = np.full(n_p, -1, dtype=np.int64)
+    out_xi = np.zeros((n_p, 3))
+    out_n = np.zeros((n_p, 3))
+    out_g = np.full(n_p, np.inf)
+    if n_p == 0 or tri.shape[0] == 0:
+        return Pairing(out_t, out_xi, out_n, out_g)
+    centroids = surface.xyz[tri].mean(axis=1)
+    k = min(candidates, tri.shape[0])
+    _, near = cKDTree(centroids).query(x, k=k)
+    near = np.asarray(near, dtype=np.int64).reshape(n_p, k)
+    normals = surface.normals
+    best = np.full(n_p, np.inf)
+    for j in range(k):  # a handful of candidates, each a vectorised pass over all points
+        cand = near[:, j]
+        a, b, c = (surface.xyz[tri[cand, i]] for i in range(3))
+        xi, proj = _barycentric(x, a, b, c)
+        gap = np.einsum("ij,ij->i", x - proj, normals[cand])
+        inside = np.all(xi >= -INSIDE_TOL, axis=1) & (np.abs(gap) <= reach)
+        better = inside & (np.abs(gap) < best)
+        best[better] = np.abs(gap[better])
+        out_t[better] = cand[better]
+        out_xi[better] = np.clip(xi[better], 0.0, 1.0)
+        out_xi[better] /= out_xi[better].sum(axis=1)[:, None]
+        out_n[better] = normals[cand[better]]
+        out_g[better] = gap[better]
+    return Pairing(out_t, out_xi, out_n, out_g)
