@@ -278,3 +278,36 @@ def test_interface_operator_forms() -> None:
     assert report.work == n * n  # one block of n rows (no labels): n² multiply-adds
     with pytest.raises(ValueError, match="truncation"):
         create_interface_operator(d, W, gamma, m, truncation=1.0)
+
+
+def test_contact_rows_replaced_between_calls(crane_zone) -> None:
+    """`ExplicitZone.set_contacts` rebuilds the zone's constraint arrays between kernel calls
+    (the hook of a re-pairing), the kernel reused as compiled: with the same rows the next
+    macro step is the one without the call, to the bit; with the contact points halved (every
+    other pair of the four wheels) the arrays follow (p, the Delassus block, the state's
+    sizes) and the step runs."""
+    sim = crane_zone
+    E = sim.integrators.explicit
+    state = E.save()
+    ctl = E.steps(1e-3, 50, mode=kx.NONE, watch=np.ones(E.contacts.p, bool))
+    ref = E.advance(ctl)
+    u_ref = E.u.copy()
+    E.restore(state)
+    E.set_contacts(E.contacts)
+    out = E.advance(ctl)
+    assert np.array_equal(E.u, u_ref)
+    assert np.array_equal(out.lam, ref.lam) and np.array_equal(out.group_impulse, ref.group_impulse)
+    E.restore(state)
+    keep = np.arange(E.contacts.p) % 2 == 0
+    full = E.contacts
+    E.set_contacts(full.subset(keep))
+    try:
+        assert E.zone.p == E.n_gamma + int(keep.sum())
+        assert E.zone.W_cc.shape == (int(keep.sum()),) * 2
+        assert E.state.lam.size == E.zone.p
+        ctl = E.steps(1e-3, 50, mode=kx.NONE, watch=np.ones(int(keep.sum()), bool))
+        half = E.advance(ctl)
+        assert np.all(np.isfinite(E.u)) and np.all(half.lam[E.n_gamma :] >= 0.0)
+    finally:
+        E.restore(state)
+        E.set_contacts(full)

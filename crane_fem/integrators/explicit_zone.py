@@ -146,6 +146,87 @@ def _friction_arrays(
     )
 
 
+def constraint_arrays(
+    model: StructuralModel, interface: ContactSet, contacts: ContactSet
+) -> dict[str, Any]:
+    """The kernel's constraint fields of :class:`~crane_fem.kernels.zone.Zone` for the
+    interface rows and the contact rows (the relation: rows, gaps, Delassus blocks and the
+    tangential rows of the frictional points), by name (collective: the Delassus operator is
+    reduced over the ranks). Called at set-up, and again whenever the contact rows change
+    (:meth:`ExplicitZone.set_contacts`): the kernel, compiled for these types, is reused.
+
+    Raises:
+        CraneFemError: interface rows that share DOFs, or friction on an interface DOF.
+    """
+    n_g = interface.p
+    stack = ContactSet.stack(interface, contacts)
+    W = stack.delassus(model.minv)
+    w_gamma = np.diag(W[:n_g, :n_g]).copy()
+    if np.any(W[:n_g, :n_g] != np.diag(w_gamma)) or np.any(w_gamma <= 0.0):
+        raise CraneFemError(
+            "explicit zone: the interface rows must act on distinct free DOFs (their "
+            "Delassus block is then diagonal and positive)"
+        )
+    W_cc = np.ascontiguousarray(W[n_g:, n_g:])
+    W_ec = np.ascontiguousarray(W[:n_g, n_g:])
+    fr = _friction_arrays(contacts, model.minv, W_cc, interface)
+    c_dofs = np.unique(np.concatenate([stack.dofs, fr.dofs])).astype(np.int64)
+    return {
+        "p": stack.p,
+        "n_g": n_g,
+        "t_row": stack.rows.astype(np.int64),
+        "t_dof": stack.dofs.astype(np.int64),
+        "t_coeff": stack.coeffs.astype(np.float64),
+        "t_pos": np.searchsorted(c_dofs, stack.dofs).astype(np.int64),
+        "c_dofs": c_dofs,
+        "g0": stack.g0.astype(np.float64),
+        "tol": float(stack.tol),
+        "c_group": np.ascontiguousarray(contacts.group, dtype=np.int64),
+        "n_groups": len(contacts.group_names),
+        "w_gamma": w_gamma,
+        "W_cc": W_cc,
+        "W_cc_inv": np.zeros((0, 0)),
+        "W_ec": W_ec,
+        "cc_diagonal": bool(np.all(W_cc == np.diag(np.diag(W_cc)))),
+        "ec_zero": not bool(np.any(W_ec)),
+        "nt": fr.nt,
+        "f_row": fr.rows,
+        "f_dof": fr.dofs,
+        "f_coeff": fr.coeffs,
+        "f_pos": np.searchsorted(c_dofs, fr.dofs).astype(np.int64),
+        "mu": fr.mu,
+        "t_first": fr.first,
+        "t_count": fr.count,
+        "W_nt": fr.W_nt,
+        "W_tt": fr.W_tt,
+        "fric_local": fr.local,
+        "iso": fr.iso,
+        "_stack": stack,
+        "_W": W,
+    }
+
+
+def _constraint_state(rows: dict[str, Any]) -> dict[str, Any]:
+    """The :class:`~crane_fem.kernels.zone.ZoneState` arrays sized by the constraint rows
+    (the contact points, their DOFs, the tangential rows): fresh, as at the start of a macro
+    step (the kernel recomputes them at every micro step)."""
+    p, n_g, nt = rows["p"], rows["n_g"], rows["nt"]
+    n_c = rows["c_dofs"].size
+    return {
+        "vold_c": np.zeros(n_c),
+        "jump": np.zeros(n_c),
+        "jump_c": np.zeros(n_c),
+        "red": np.zeros(3 * p + nt),
+        "red_out": np.zeros(3 * p + nt),
+        "lam": np.zeros(p),
+        "qc": np.zeros(p - n_g),
+        "closed": np.zeros(p - n_g, dtype=bool),
+        "jump_f": np.zeros(n_c),
+        "qt": np.zeros(nt),
+        "lam_t": np.zeros(nt),
+    }
+
+
 @dataclass(frozen=True)
 class _Halo:
     """Neighbour ranks and, per neighbour, the owned DOFs sent and the ghost DOFs received."""
@@ -236,11 +317,13 @@ class ExplicitZone:
     ) -> None:
         self.model, self.load, self.dt = model, load, float(dt)
         self.n_gamma = interface.p
+        self.interface = interface
         self.contacts = contacts
-        self.stack = ContactSet.stack(interface, contacts)
-        self.W = self.stack.delassus(model.minv)
+        relation = constraint_arrays(model, interface, contacts)
+        self.stack: ContactSet = relation.pop("_stack")
+        self.W: FloatArray = relation.pop("_W")
         self.v0 = np.array(v0, dtype=np.float64)
-        n_g, p = self.n_gamma, self.stack.p
+        n_g = self.n_gamma
         n_own = model.n_owned
         bs = int(model.V.dofmap.index_map_bs)
         indptr, indices, data, halo = _local_block_csr(model)
@@ -249,18 +332,6 @@ class ExplicitZone:
         if indices.size:
             rows = np.repeat(np.arange(indptr.size - 1), np.diff(indptr))
             has_ghost[rows[indices >= n_own // bs]] = True
-        W = self.W
-        w_gamma = np.diag(W[:n_g, :n_g]).copy()
-        if np.any(W[:n_g, :n_g] != np.diag(w_gamma)) or np.any(w_gamma <= 0.0):
-            raise CraneFemError(
-                "explicit zone: the interface rows must act on distinct free DOFs (their "
-                "Delassus block is then diagonal and positive)"
-            )
-        W_cc = np.ascontiguousarray(W[n_g:, n_g:])
-        W_ec = np.ascontiguousarray(W[:n_g, n_g:])
-        st = self.stack
-        fr = _friction_arrays(contacts, model.minv, W_cc, interface)
-        c_dofs = np.unique(np.concatenate([st.dofs, fr.dofs])).astype(np.int64)
         self._comm = model.comm.Dup()
         nbrs, si, ri = halo.neighbours, halo.send_idx, halo.recv_idx
         self.zone = kx.Zone(
@@ -278,23 +349,6 @@ class ExplicitZone:
             beta=float(model.beta),
             load_base=np.ascontiguousarray(load.base, dtype=np.float64),
             load_shapes=np.ascontiguousarray(load.shapes, dtype=np.float64),
-            p=p,
-            n_g=n_g,
-            t_row=st.rows.astype(np.int64),
-            t_dof=st.dofs.astype(np.int64),
-            t_coeff=st.coeffs.astype(np.float64),
-            t_pos=np.searchsorted(c_dofs, st.dofs).astype(np.int64),
-            c_dofs=c_dofs,
-            g0=st.g0.astype(np.float64),
-            tol=float(st.tol),
-            c_group=np.ascontiguousarray(contacts.group, dtype=np.int64),
-            n_groups=len(contacts.group_names),
-            w_gamma=w_gamma,
-            W_cc=W_cc,
-            W_cc_inv=np.zeros((0, 0)),
-            W_ec=W_ec,
-            cc_diagonal=bool(np.all(W_cc == np.diag(np.diag(W_cc)))),
-            ec_zero=not bool(np.any(W_ec)),
             mpi=comm_handle(self._comm),
             nranks=int(self._comm.size),
             neighbours=nbrs,
@@ -302,25 +356,13 @@ class ExplicitZone:
             send_idx=si,
             recv_ptr=halo.recv_ptr,
             recv_idx=ri,
-            nt=fr.nt,
-            f_row=fr.rows,
-            f_dof=fr.dofs,
-            f_coeff=fr.coeffs,
-            f_pos=np.searchsorted(c_dofs, fr.dofs).astype(np.int64),
-            mu=fr.mu,
-            t_first=fr.first,
-            t_count=fr.count,
-            W_nt=fr.W_nt,
-            W_tt=fr.W_tt,
-            fric_local=fr.local,
-            iso=fr.iso,
+            **relation,
         )
         n_loc = n_loc_b * bs
         u = np.zeros(n_loc)
         u[:n_own] = u0
         vh = np.zeros(n_loc)
         vh[:n_own] = v0
-        n_c = c_dofs.size
         #: The stacked and tangential impulses of the last micro step integrated.
         self._last_impulses: tuple[FloatArray, FloatArray] | None = None
         self.state = kx.ZoneState(
@@ -331,20 +373,10 @@ class ExplicitZone:
             v_int=self.v0.copy(),
             lam_prev=np.zeros(n_g),
             w_prev=np.zeros(n_g),
-            vold_c=np.zeros(n_c),
-            jump=np.zeros(n_c),
-            jump_c=np.zeros(n_c),
-            red=np.zeros(3 * p + fr.nt),
-            red_out=np.zeros(3 * p + fr.nt),
-            lam=np.zeros(p),
             qe=np.zeros(n_g),
-            qc=np.zeros(p - n_g),
             work=np.zeros(n_g),
-            closed=np.zeros(p - n_g, dtype=bool),
-            jump_f=np.zeros(n_c),
-            qt=np.zeros(fr.nt),
-            lam_t=np.zeros(fr.nt),
             fric_info=np.zeros(2),
+            **_constraint_state(relation),
             send_buf=np.zeros(si.size),
             recv_buf=np.zeros(ri.size),
             requests=create_requests(2 * nbrs.size),
@@ -379,6 +411,22 @@ class ExplicitZone:
     def w_prev(self) -> FloatArray:
         """L_E V at the last integer time (global)."""
         return self.state.w_prev
+
+    def set_contacts(self, contacts: ContactSet) -> None:
+        """Replace the contact rows (the relation: a re-pairing between macro steps, the hook
+        before a step, as Siconos' ``updateInteractions``), the interface rows kept
+        (collective). The kernel, compiled for the zone's types, is reused; the state
+        arrays sized by the contact rows start afresh (the kernel recomputes them every micro
+        step), the mechanical state (U, V, K U) and the interface rows' impulses are kept."""
+        rows = constraint_arrays(self.model, self.interface, contacts)
+        self.stack, self.W = rows.pop("_stack"), rows.pop("_W")
+        self.contacts = contacts
+        self.zone = self.zone._replace(**rows)
+        fresh = _constraint_state(rows)
+        n_g = self.n_gamma
+        fresh["lam"][:n_g] = self.state.lam[:n_g]  # the interface rows' impulses are kept
+        self.state = self.state._replace(**fresh)
+        self._last_impulses = None
 
     def with_bilateral_contacts(self, W_cc_inv: FloatArray) -> None:
         """Hold the contact rows as bilateral constraints (the linear probes of "ec", "ph")."""
