@@ -73,3 +73,56 @@ def test_a_point_off_the_surface_is_unpaired() -> None:
     pairing = pair_points(np.array([[0.35, 0.0, 0.3901], [0.1, 0.0, 0.45]]), s, reach=0.01)
     assert not pairing.paired.any()
     assert np.all(np.isinf(pairing.gap))
+
+
+class _AllOwned:
+    """A serial subdomain owning every vertex: block i is vertex id i."""
+
+    bs = 3
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+
+    def owned_dofs_of(self, vertices):
+        v = np.asarray(vertices, dtype=np.int64)
+        mine = v < self.n
+        return v[mine], np.flatnonzero(mine).astype(np.int64)
+
+
+def test_surface_rows_apply_the_pairing() -> None:
+    """The rows of :func:`surface_rows` applied to a displacement u give n·(u_p − Σ ξ_i u_i):
+    the pairing's gap change, point by point; a point over a vertex has the node-to-node row
+    (two terms in z)."""
+    from mpi4py import MPI
+
+    from crane_fem.contact.surface import surface_rows
+
+    s = _rail_top()
+    n_v = s.xyz.shape[0]
+    surf = Surface(s.xyz, s.triangles, np.arange(n_v))  # vertex ids = blocks 0..n_v−1
+    rng = np.random.default_rng(3)
+    pts = np.column_stack([rng.uniform(0.01, 0.29, 20), rng.uniform(-0.02, 0.02, 20)])
+    pts = np.column_stack([pts, np.full(20, 0.3901)])
+    pts[0] = s.xyz[20] + [0.0, 0.0, 1e-4]  # over a vertex
+    pairing = pair_points(pts, surf)
+    point_ids = n_v + np.arange(20)  # the points are the next vertices
+    rows = surface_rows(
+        MPI.COMM_SELF,
+        _AllOwned(n_v + 20),
+        point_ids,
+        pairing,
+        surf,
+        pairing.gap,
+        np.zeros(20, dtype=np.int64),
+        ["wheel"],
+    )
+    u = rng.standard_normal((n_v + 20) * 3) * 1e-4
+    U = u.reshape(-1, 3)
+    tri = surf.triangles[pairing.triangle]
+    expected = np.einsum(
+        "ij,ij->i", pairing.normal, U[point_ids] - np.einsum("ik,ikj->ij", pairing.xi, U[tri])
+    )
+    np.testing.assert_allclose(rows.apply(u), expected, rtol=0, atol=1e-16)
+    np.testing.assert_allclose(rows.g0, pairing.gap)
+    on_vertex = rows.dofs[rows.rows == 0]
+    assert sorted(on_vertex.tolist()) == [3 * 20 + 2, 3 * point_ids[0] + 2]

@@ -18,12 +18,16 @@ triangles it needs).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
+from mpi4py import MPI
 from scipy.spatial import cKDTree
 
-__all__ = ["Pairing", "Surface", "pair_points"]
+from crane_fem.contact.constraints import ContactSet
+
+__all__ = ["Pairing", "Surface", "pair_points", "surface_rows"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -132,3 +136,63 @@ def pair_points(
         out_n[better] = normals[cand[better]]
         out_g[better] = gap[better]
     return Pairing(out_t, out_xi, out_n, out_g)
+
+
+class _OwnedDofs(Protocol):
+    """What :func:`surface_rows` asks of a subdomain: its block size and owned blocks."""
+
+    @property
+    def bs(self) -> int: ...
+
+    def owned_dofs_of(self, vertices: IntArray) -> tuple[IntArray, IntArray]: ...
+
+
+def surface_rows(
+    comm: MPI.Comm,
+    sub: _OwnedDofs,
+    point_ids: IntArray,
+    pairing: Pairing,
+    surface: Surface,
+    g0: FloatArray,
+    group: IntArray,
+    names: list[str],
+    tol: float = 0.0,
+) -> ContactSet:
+    """The node-to-surface rows of the paired points as a :class:`ContactSet`: row r acts on
+    point ``point_ids[r]``'s DOFs with +n_r and on each vertex i of its triangle with
+    −ξ_ri n_r; each rank keeps the terms of the DOFs it owns (the points and the triangles
+    may lie on different ranks: the rows are global, their terms distributed, as every
+    :class:`ContactSet`'s). An unpaired point's row is empty (its gap stays ``g0``: give it
+    a large one). ``g0`` and ``group`` are per point. Not collective (``comm`` is the
+    set's)."""
+    bs = sub.bs
+    p = point_ids.size
+    verts, coeff = pairing.row_coefficients(surface)
+    paired = pairing.paired
+    # All terms: (row, vertex, component, coefficient), the point's first.
+    r_all = [np.repeat(np.arange(p), bs), np.repeat(np.arange(p), 3 * bs)]
+    v_all = [np.repeat(point_ids, bs), np.repeat(verts.ravel(), bs)]
+    c_all = [np.tile(np.arange(bs), p), np.tile(np.arange(bs), 3 * p)]
+    k_all = [pairing.normal[:, :bs].ravel(), coeff[:, :, :bs].reshape(-1)]
+    rows = np.concatenate(r_all)
+    vert = np.concatenate(v_all)
+    comp = np.concatenate(c_all)
+    val = np.concatenate(k_all)
+    keep = paired[rows] & (val != 0.0)
+    rows, vert, comp, val = rows[keep], vert[keep], comp[keep], val[keep]
+    uniq = np.unique(vert)
+    blocks, pos = sub.owned_dofs_of(uniq)
+    owner_block = np.full(uniq.size, -1, dtype=np.int64)
+    owner_block[pos] = blocks
+    b = owner_block[np.searchsorted(uniq, vert)]
+    mine = b >= 0
+    return ContactSet(
+        comm,
+        np.asarray(g0, dtype=np.float64),
+        rows[mine].astype(np.int64),
+        (b[mine] * bs + comp[mine]).astype(np.int64),
+        val[mine].astype(np.float64),
+        np.asarray(group, dtype=np.int64),
+        list(names),
+        tol=tol,
+    )
