@@ -126,3 +126,47 @@ def test_surface_rows_apply_the_pairing() -> None:
     np.testing.assert_allclose(rows.g0, pairing.gap)
     on_vertex = rows.dofs[rows.rows == 0]
     assert sorted(on_vertex.tolist()) == [3 * 20 + 2, 3 * point_ids[0] + 2]
+
+
+def test_crane_rail_tops_pair_the_wheels_on_their_vertices(shared_tmp) -> None:
+    """The quick crane's explicit zones: their rail-top triangles (exterior facets at the
+    rail top, facing +z; the wheels' soles there face −z and are left out) cover the four
+    rail zones — area 4 × rail width × zone length —, hold every rail vertex of the wheel/
+    rail pairs, and pair each wheel vertex on its own rail vertex at t = 0 (ξ = e_i, gap 0):
+    the node-to-node rows of today, the same on every rank."""
+    from pathlib import Path
+
+    from conftest import COMM
+
+    from crane_fem.contact.surface import facing_surface
+    from crane_fem.pipeline.mesh import build_mesh
+    from crane_fem.pipeline.models import build_models
+    from crane_fem.scenario import load_scenario
+
+    sc = load_scenario(Path(__file__).parent.parent / "demos" / "crane_quick.toml")
+    mesh = build_mesh(sc, COMM)
+    models = build_models(sc, mesh)
+    try:
+        geo = sc.model.geometry()
+        sub = models.explicit
+        top = facing_surface(sub, np.array([0.0, 0.0, 1.0]), geo.rail_top, 2, 1e-9)
+        a, b, c = (top.xyz[top.triangles[:, i]] for i in range(3))
+        area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum()
+        np.testing.assert_allclose(top.normals, np.tile([0.0, 0.0, 1.0], (len(top.triangles), 1)))
+        crane = mesh.crane
+        assert np.all(np.isin(crane.pairs[:, 1], top.vertex_ids))
+        # The wheels' vertices sit on their rail vertices: the pairing snaps to them.
+        rail_xyz = top.xyz[np.searchsorted(top.vertex_ids, crane.pairs[:, 1])]
+        pairing = pair_points(rail_xyz + np.array([0.0, 0.0, 1e-12]), top)
+        assert pairing.paired.all()
+        tri = top.triangles[pairing.triangle]
+        vert = top.vertex_ids[tri[np.arange(len(tri)), np.argmax(pairing.xi, axis=1)]]
+        assert np.array_equal(vert, crane.pairs[:, 1])
+        assert np.max(np.abs(1.0 - pairing.xi.max(axis=1))) <= 1e-9
+        # Four rail zones, one per wheel: a rail width × (wheel length + 2 zone margins).
+        zone = geo.wheel_length + 2.0 * geo.zone_margin
+        assert area == pytest.approx(4 * geo.rail_width * zone, rel=1e-9)
+        areas = COMM.allgather(area)
+        assert all(x == areas[0] for x in areas)
+    finally:
+        models.destroy()

@@ -18,7 +18,7 @@ triangles it needs).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -27,7 +27,7 @@ from scipy.spatial import cKDTree
 
 from crane_fem.contact.constraints import ContactSet
 
-__all__ = ["Pairing", "Surface", "pair_points", "surface_rows"]
+__all__ = ["Pairing", "Surface", "facing_surface", "pair_points", "surface_rows"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -196,3 +196,60 @@ def surface_rows(
         list(names),
         tol=tol,
     )
+
+
+def facing_surface(sub: Any, normal: FloatArray, level: float, axis: int, tol: float) -> Surface:
+    """The exterior facets of the subdomain ``sub`` whose vertices all lie at coordinate
+    ``level`` along ``axis`` (within ``tol``) and whose outward normal is ``normal``: a
+    rail's top (+z at the rail top) or side (±x) faces in an explicit zone, as one
+    :class:`Surface` of global parent vertex ids, the same on every rank (collective: each
+    rank's owned facets, gathered; a point's triangle may then be anywhere).
+    """
+    import dolfinx.mesh
+
+    msh = sub.submesh
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim - 1, tdim)
+    msh.topology.create_connectivity(tdim - 1, 0)
+    msh.topology.create_connectivity(tdim, 0)
+    msh.topology.create_connectivity(0, tdim)
+    facets = dolfinx.mesh.exterior_facet_indices(msh.topology)
+    n_owned = msh.topology.index_map(tdim - 1).size_local
+    facets = facets[facets < n_owned]
+    f2v = msh.topology.connectivity(tdim - 1, 0)
+    f2c = msh.topology.connectivity(tdim - 1, tdim)
+    c2v = msh.topology.connectivity(tdim, 0)
+    geo = msh.geometry.x
+    v2g = dolfinx.mesh.entities_to_geometry(
+        msh,
+        0,
+        np.arange(
+            msh.topology.index_map(0).size_local + msh.topology.index_map(0).num_ghosts,
+            dtype=np.int32,
+        ),
+    ).ravel()
+    tris, coords = [], []
+    want = np.asarray(normal, dtype=np.float64)
+    for f in facets:
+        verts = f2v.links(f)
+        xyz = geo[v2g[verts]]
+        if np.max(np.abs(xyz[:, axis] - level)) > tol:
+            continue
+        cell = f2c.links(f)[0]
+        centre = geo[v2g[c2v.links(cell)]].mean(axis=0)
+        n = np.cross(xyz[1] - xyz[0], xyz[2] - xyz[0])
+        if np.dot(n, xyz[0] - centre) < 0.0:  # outward: away from its cell
+            n, verts, xyz = -n, verts[[0, 2, 1]], xyz[[0, 2, 1]]
+        if np.dot(n / np.linalg.norm(n), want) < 1.0 - 1e-9:
+            continue
+        tris.append(sub.vertex_global[verts])
+        coords.append(xyz)
+    got = sub.submesh.comm.allgather(
+        (np.asarray(tris, dtype=np.int64).reshape(-1, 3), np.asarray(coords).reshape(-1, 3, 3))
+    )
+    all_tris = np.concatenate([t for t, _ in got])
+    all_xyz = np.concatenate([c for _, c in got])
+    ids, inverse = np.unique(all_tris.ravel(), return_inverse=True)
+    xyz = np.zeros((ids.size, 3))
+    xyz[inverse] = all_xyz.reshape(-1, 3)
+    return Surface(xyz, inverse.reshape(-1, 3).astype(np.int64), ids.astype(np.int64))
