@@ -24,6 +24,7 @@ from crane_fem.checkpoint import (
     scenario_hash,
     write_checkpoint,
 )
+from crane_fem.contact.sliding import SlidingContacts
 from crane_fem.coupling import MacroRecord, MacroStep
 from crane_fem.errors import RunInterrupted, ScenarioError, UnstableRunError
 from crane_fem.io import HistoryWriter, XDMFSeries, write_summary
@@ -147,14 +148,22 @@ def _step_sizes(sim: Simulation) -> dict[str, Any]:
 
 
 def _records(
-    method: MacroStep, force0: FloatArray | None, resumed: MacroRecord | None
+    method: MacroStep,
+    force0: FloatArray | None,
+    resumed: MacroRecord | None,
+    sliding: SlidingContacts | None = None,
 ) -> Iterator[MacroRecord]:
     """The macro records of a run: the start's (or the resumed checkpoint's), then one per
-    macro step to the clock's end (collective)."""
+    macro step to the clock's end (collective). Before each macro step, node-to-surface
+    contacts are paired again where their points have slid (``sliding``: the hook that
+    updates the explicit zone's contact rows)."""
     rec = method.initialize(force0) if resumed is None else resumed
     yield rec
-    grid = method.system.grid
+    system = method.system
+    grid = system.grid
     while not grid.finished:
+        if sliding is not None and system.E is not None:
+            sliding.update(system.E, system.t)
         yield method.step()
 
 
@@ -168,6 +177,8 @@ def _save(sim: Simulation, out: Path, rec: MacroRecord, books: LoopBooks) -> Non
         "record": rec.state_dict(),
         "books": books.state_dict(),
     }
+    if sim.constraints.sliding is not None:
+        state["sliding"] = sim.constraints.sliding.state_dict()
     write_checkpoint(out, sim.mesh.comm, meta, state)
 
 
@@ -191,6 +202,10 @@ def _resume(ckpt: Checkpoint, sim: Simulation, books: LoopBooks, restart: Path) 
     try:
         sim.integrators.method.load_state_dict(ckpt.state["method"])
         books.load_state_dict(ckpt.state["books"])
+        sliding = sim.constraints.sliding
+        if sliding is not None:
+            zone = sim.integrators.system.E
+            sliding.load_state_dict(ckpt.state["sliding"], zone)
         rec = sim.integrators.system.resume_record(ckpt.state["record"])
     except (KeyError, ValueError, TypeError) as exc:
         error = (
@@ -316,7 +331,8 @@ def run_coupled(
     stop = StopRequest(comm)
     try:
         with stop, HistoryWriter(out / "history.csv", columns, comm, history) as writer:
-            for rec in _records(method, it.interface_force0, resumed):
+            sliding = sim.constraints.sliding
+            for rec in _records(method, it.interface_force0, resumed, sliding):
                 bar.update(rec.micro_step - bar.n)
                 sample, at_sample = divmod(rec.micro_step, n_s)
                 at_sample = at_sample == 0
@@ -356,9 +372,10 @@ def run_coupled(
                         assert du is not None and dv is not None
                         fields = {"displacement": du, "velocity": dv}
                         if is_e:
+                            zone = it.system.E  # its rows: re-paired ones when sliding
+                            assert zone is not None
                             fields["contact_force"] = (
-                                sim.constraints.contacts.transpose(rec.contact_impulse, du.size)
-                                / md.dt
+                                zone.contacts.transpose(rec.contact_impulse, du.size) / md.dt
                             )
                         w.write(rec.t, fields)
                 if comm.size > 1:
@@ -409,6 +426,8 @@ def run_coupled(
             b.ifd_min_step if math.isfinite(b.ifd_min_step) else 0.0
         )
         summary.update(method.summary())
+        if sim.constraints.sliding is not None:
+            summary["node_to_surface"] = sim.constraints.sliding.summary()
         summary["t_reached_s"] = history["t"][-1] if history["t"] else 0.0
         summary["time_end_s"] = sc.time.end
         monitors.summarize(summary)

@@ -32,8 +32,15 @@ __all__ = ["Pairing", "Surface", "facing_surface", "pair_points", "surface_rows"
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
-#: Barycentric tolerance of "inside a triangle" (a point on an edge belongs to both).
-INSIDE_TOL = 1e-10
+#: Barycentric tolerance of "inside a triangle" (a point on an edge belongs to both). A
+#: point on the surface's own border (a wheel as wide as its rail: its edge vertices sit on
+#: the rail's edges) projects a little outside it once the surface tilts under it, by its
+#: distance times the tilt (1e-6 of an edge at 0.3 mm above a slope of 3e-4): 1e-3 of an
+#: edge (25 µm on the crane's rail) keeps it paired, its coordinates clipped to the edge,
+#: when no triangle holds it within :data:`STRICT_TOL` (preferred: the gap of a point
+#: crossing an inner edge stays continuous).
+INSIDE_TOL = 1e-3
+STRICT_TOL = 1e-10
 
 
 @dataclass(frozen=True)
@@ -117,18 +124,37 @@ def pair_points(
     if n_p == 0 or tri.shape[0] == 0:
         return Pairing(out_t, out_xi, out_n, out_g)
     centroids = surface.xyz[tri].mean(axis=1)
+    # A triangle holds the projections only of points within its circumscribing radius
+    # about its centroid (plus the point's distance to its plane, at most ``reach``): the
+    # candidates are the nearest centroids, as many as needed for the farthest to lie beyond
+    # the largest such radius (a point by a thin triangle needs more than ``candidates``).
+    radius = float(np.max(np.linalg.norm(surface.xyz[tri] - centroids[:, None, :], axis=2)))
+    tree = cKDTree(centroids)
     k = min(candidates, tri.shape[0])
-    _, near = cKDTree(centroids).query(x, k=k)
+    while True:
+        dist, near = tree.query(x, k=k)
+        dist = np.asarray(dist).reshape(n_p, k)
+        depth = np.abs(dist[:, 0]) if np.isinf(reach) else reach
+        if k == tri.shape[0] or np.all(dist[:, -1] > np.hypot(radius, depth)):
+            break
+        k = min(2 * k, tri.shape[0])
     near = np.asarray(near, dtype=np.int64).reshape(n_p, k)
     normals = surface.normals
     best = np.full(n_p, np.inf)
+    best_strict = np.zeros(n_p, dtype=bool)
     for j in range(k):  # a handful of candidates, each a vectorised pass over all points
         cand = near[:, j]
         a, b, c = (surface.xyz[tri[cand, i]] for i in range(3))
         xi, proj = _barycentric(x, a, b, c)
         gap = np.einsum("ij,ij->i", x - proj, normals[cand])
         inside = np.all(xi >= -INSIDE_TOL, axis=1) & (np.abs(gap) <= reach)
-        better = inside & (np.abs(gap) < best)
+        strict = inside & np.all(xi >= -STRICT_TOL, axis=1)
+        # A triangle holding the point strictly beats one holding it within the border's
+        # tolerance; among equals, the nearest along its normal.
+        better = inside & (
+            (strict & ~best_strict) | ((strict == best_strict) & (np.abs(gap) < best))
+        )
+        best_strict[better] = strict[better]
         best[better] = np.abs(gap[better])
         out_t[better] = cand[better]
         out_xi[better] = np.clip(xi[better], 0.0, 1.0)

@@ -428,6 +428,15 @@ class ExplicitZone:
         self.state = self.state._replace(**fresh)
         self._last_impulses = None
 
+    def set_contact_gaps(self, g0: FloatArray) -> None:
+        """Replace the contact rows' gaps g0 (p_c,), the rows kept (not collective: every
+        rank passes the same values)."""
+        n_g = self.n_gamma
+        g = np.asarray(g0, dtype=np.float64)
+        self.zone.g0[n_g:] = g
+        self.stack.g0[n_g:] = g
+        self.contacts.g0[:] = g
+
     def with_bilateral_contacts(self, W_cc_inv: FloatArray) -> None:
         """Hold the contact rows as bilateral constraints (the linear probes of "ec", "ph")."""
         self.zone = self.zone._replace(W_cc_inv=np.ascontiguousarray(W_cc_inv))

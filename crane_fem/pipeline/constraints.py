@@ -11,6 +11,13 @@ from mpi4py import MPI
 
 from crane_fem.contact import ContactSet
 from crane_fem.contact.constraints import TangentRows
+from crane_fem.contact.sliding import (
+    Family,
+    SlidingContacts,
+    merge_surfaces,
+    vertex_coordinates,
+)
+from crane_fem.contact.surface import facing_surface
 from crane_fem.coupling.interface import build_interface, constraint_set
 from crane_fem.errors import ScenarioError
 from crane_fem.geometry import groups
@@ -28,12 +35,15 @@ IntArray = npt.NDArray[np.int64]
 
 @dataclass(frozen=True)
 class ConstraintStage:
-    """The interface (sorted global parent vertices, L_E and L_I) and the contacts."""
+    """The interface (sorted global parent vertices, L_E and L_I) and the contacts; with
+    node-to-surface contact, ``sliding`` re-pairs them as the bodies slide (the contacts are
+    its rows at t = 0)."""
 
     interface_vertices: IntArray
     l_explicit: ContactSet
     l_implicit: ContactSet
     contacts: ContactSet
+    sliding: SlidingContacts | None = None
 
 
 def _wall_contacts(sc: Scenario, mesh: MeshStage, sub: Subdomain) -> ContactSet:
@@ -208,6 +218,68 @@ def _flange_contacts(
     )
 
 
+def _sliding_contacts(
+    sub: Subdomain, crane: CraneMesh, mdl: CraneModel, wheel: Wheel, nodes: ContactSet
+) -> SlidingContacts:
+    """The wheels' vertices on the rail tops and the flanges' on the rail sides, node to
+    surface (crane_fem.contact.sliding), from their node-to-node rows ``nodes`` (wheel pairs
+    then flange pairs): each point's offset c_p keeps its node-to-node gap at t = 0
+    (collective)."""
+    geo = mdl.geometry()
+    tol = 1e-6 * geo.size
+    top = facing_surface(sub, np.array([0.0, 0.0, 1.0]), geo.rail_top, 2, tol)
+    n_pairs = crane.pairs.shape[0]
+    families = [
+        Family(
+            crane.pairs[:, 0].astype(np.int64),
+            top,
+            (crane.wheel - 1).astype(np.int64),
+            nodes.g0[:n_pairs].copy(),
+            n_tangents=(2 if wheel.braked else 1) if wheel.friction > 0.0 else 0,
+            mu=wheel.friction,
+            along=1,
+            label=crane.wheel.astype(np.int64),
+        )
+    ]
+    fp = crane.flange_pairs
+    if fp.shape[0]:
+        ids = np.unique(fp.ravel())
+        X = vertex_coordinates(sub, ids)
+        Xf, Xr = X[np.searchsorted(ids, fp[:, 0])], X[np.searchsorted(ids, fp[:, 1])]
+        normal = crane.flange_normal
+        offset = nodes.g0[n_pairs:] - np.einsum("ij,ij->i", normal, Xf - Xr)
+        group = nodes.group[n_pairs:]
+        rails = sorted({x for x, _ in geo.wheel_centres()})
+        for sign in (1.0, -1.0):
+            mine = normal[:, 0] * sign > 0.0
+            if not np.any(mine):
+                continue
+            sides = [
+                facing_surface(
+                    sub, np.array([sign, 0.0, 0.0]), x + 0.5 * sign * geo.rail_width, 0, tol
+                )
+                for x in rails
+            ]
+            families.append(
+                Family(
+                    fp[mine, 0].astype(np.int64),
+                    merge_surfaces(sides),
+                    group[mine],
+                    offset[mine],
+                    along=1,
+                    label=crane.flange_wheel[mine].astype(np.int64),
+                )
+            )
+    names = list(nodes.group_names)
+    message = (
+        "wheel {label} slid {slip_mm:+.1f} mm along its rail at t = {t:.6g} s, off the end of "
+        f"its explicit rail zone, which extends model.zone_margin = {geo.zone_margin * 1e3:g} "
+        "mm past the wheel at each end: raise model.zone_margin to follow it further"
+    )
+    sliding = SlidingContacts(sub, families, names, nodes.tol, message)
+    return sliding
+
+
 def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> ConstraintStage:
     """Interface rows and contacts (collective)."""
     comm = mesh.comm
@@ -220,6 +292,7 @@ def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> Cons
         if vertices.size == 0:
             raise ScenarioError("subdomain: the explicit and implicit subdomains do not touch")
     contacts = ContactSet.empty(comm)
+    sliding = None
     if mesh.crane is not None:
         if E_sub is None:
             raise ScenarioError("the crane's wheel/rail contacts need an explicit subdomain")
@@ -228,6 +301,9 @@ def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> Cons
         if mesh.crane.flange_pairs.shape[0] > 0:
             flanges = _flange_contacts(comm, E_sub, mesh.crane, models.preload, sc.model.span)
             contacts = ContactSet.stack(contacts, flanges)
+        if sc.wheel.contact == "surface":
+            sliding = _sliding_contacts(E_sub, mesh.crane, sc.model, sc.wheel, contacts)
+            contacts = sliding.rows()
     elif sc.contact:
         if E_sub is None:
             raise ScenarioError("contact: needs an explicit (cd-lagrange) subdomain")
@@ -235,4 +311,4 @@ def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> Cons
             contacts = _plane_contacts(sc, mesh, E_sub)
         else:
             contacts = _wall_contacts(sc, mesh, E_sub)
-    return ConstraintStage(vertices, le, li, contacts)
+    return ConstraintStage(vertices, le, li, contacts, sliding)

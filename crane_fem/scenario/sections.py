@@ -133,10 +133,15 @@ class Wheel(Section):
     wheel/rail pairs (0: frictionless, as before); ``braked`` (default true: a crane parked
     for an earthquake has its brakes set, the usual qualification assumption) makes the
     wheels stick by friction both across (x) and along (y) the rail, else they roll freely
-    along it (friction across only)."""
+    along it (friction across only). ``contact`` is how a wheel's vertices act on its rail:
+    ``"nodes"`` (default), each on the rail vertex it touches at t = 0, which follows a slip
+    of half the rail's vertex spacing; ``"surface"``, on the rail top's triangles (and the
+    flanges on the rail sides), paired again as the wheel slides, up to the end of the
+    explicit rail zone (``model.zone_margin`` past the wheel at each end)."""
 
     friction: NonNegativeFloat = 0.0
     braked: bool = True
+    contact: Literal["nodes", "surface"] = "nodes"
 
 
 class Time(Section):

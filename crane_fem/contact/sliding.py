@@ -1,0 +1,426 @@
+"""Node-to-surface contacts that follow bodies sliding over each other: the contact rows as
+data that a hook before each macro step updates (Siconos' ``updateInteractions``), the
+relation (rows, gaps) apart from the law (unilateral, Coulomb μ: the kernel's).
+
+A :class:`Family` is a set of contact points acting on one :class:`~crane_fem.contact.surface.
+Surface` (a crane's wheel vertices on its rail tops, its flanges on the rail sides). Each
+point's row is g = g0 + n·(u_p − Σ ξ_i u_i) with its triangle's normal n and barycentric
+coordinates ξ (crane_fem.contact.surface); with friction, its tangential rows are
+t·(v_p − Σ ξ_i v_i) for two tangents orthonormal to n (the first along x projected, the second
+n × t₁), the first only for a point that slides freely along the second.
+
+g0 keeps the gap of the reference configuration X continuous across re-pairings:
+g0 = n·(X_p − Σ ξ_i X_i) + c_p, with c_p fixed per point at t = 0 (the preload's closing of a
+wheel pair, a flange's clearance): then g = n·(x_p − Σ ξ_i x_i) + c_p, the current distance
+along the normal, whichever triangle the point is on.
+
+At every macro-step boundary :meth:`SlidingContacts.update` measures, for every point, the
+tangential drift of x_p − Σ ξ_i x_i since its pairing (the rows are the tangent plane's of the
+pairing). Once a point has drifted more than :data:`SLIDE_TOL`, every boundary projects the
+points on the current surface (ξ', n') and sets the gaps so that g0 + L u is the current
+distance n'·(x_p − Σ ξ'_i x_i) + c_p: the gap of a point crossing an edge is continuous,
+whichever rows carry it. The rows themselves are paired again, lazily, when a drift exceeds
+:data:`REPAIR_FRACTION` of the surface's shortest edge
+(:meth:`~crane_fem.integrators.explicit_zone.ExplicitZone.set_contacts`, no recompilation).
+Until a point drifts :data:`SLIDE_TOL`, rows and gaps stay those of t = 0, where each point
+sits on a surface vertex (ξ = e_i snapped exactly): the node-to-node rows of that pair, so a
+scene that does not slide keeps its node-to-node history to round-off (docs/theory-notes.md
+§12).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+
+from crane_fem.contact.constraints import ContactSet, TangentRows
+from crane_fem.contact.surface import Pairing, Surface, pair_points, surface_rows
+from crane_fem.errors import CraneFemError
+
+__all__ = [
+    "REPAIR_FRACTION",
+    "Family",
+    "SlidingContacts",
+    "SlidingError",
+    "merge_surfaces",
+    "tangents_of",
+    "vertex_coordinates",
+]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+#: A point is paired again once its tangential drift over its triangle exceeds this fraction
+#: of the surface's shortest edge (the rows are the tangent plane's of the pairing: on a flat
+#: surface exact, on a bent one off by its slope times the drift).
+REPAIR_FRACTION = 0.05
+#: A drift (m) below which the rows and gaps stay as paired (a scene that does not slide keeps
+#: its t = 0 rows bit for bit); above it, the gaps follow the current projection (the first
+#: refresh moves a gap by the surface's slope times this: 1e-9 m at a slope of 1e-3).
+SLIDE_TOL = 1.0e-6
+#: An unpaired point's gap (m): it cannot close.
+OPEN_GAP = 1.0e3
+#: Barycentric coordinates within this of a vertex's are that vertex's exactly (t = 0: a
+#: point on a surface vertex has the node-to-node row of that pair).
+SNAP_TOL = 1e-9
+
+
+class SlidingError(CraneFemError):
+    """A contact point left the surface it must stay on (a wheel ran off its rail zone)."""
+
+
+@dataclass(frozen=True)
+class Family:
+    """Contact points against one surface.
+
+    Attributes:
+        points: (p,) global parent vertex ids of the points.
+        surface: the triangles they act on.
+        group: (p,) contact group of each point (index into the set's names).
+        offset: (p,) c_p (m), see the module docstring.
+        n_tangents: tangential rows per point with friction (0: frictionless, 1: across only,
+            the first tangent; 2: both).
+        mu: Coulomb coefficient of the family's points.
+        along: axis along which a point may leave the surface's extent only by running off it
+            (a rail's length, y); −1: none (leaving it across is an overhang, the point's
+            row is then empty).
+        label: (p,) the body each point belongs to, for messages (a wheel's number).
+    """
+
+    points: IntArray
+    surface: Surface
+    group: IntArray
+    offset: FloatArray
+    n_tangents: int = 0
+    mu: float = 0.0
+    along: int = -1
+    label: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+    @property
+    def p(self) -> int:
+        return int(self.points.size)
+
+
+def tangents_of(normal: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Two unit tangents (k, 3) per unit normal (k, 3): t₁ = e_x projected off n (e_y where n
+    is along x), t₂ = n × t₁; for n = e_z: e_x and e_y."""
+    n = np.asarray(normal, dtype=np.float64).reshape(-1, 3)
+    ref = np.zeros_like(n)
+    along_x = np.abs(n[:, 0]) > 0.9
+    ref[~along_x, 0] = 1.0
+    ref[along_x, 1] = 1.0
+    t1 = ref - np.einsum("ij,ij->i", ref, n)[:, None] * n
+    t1 /= np.linalg.norm(t1, axis=1)[:, None]
+    return t1, np.cross(n, t1)
+
+
+def vertex_coordinates(sub: Any, ids: IntArray) -> FloatArray:
+    """Reference coordinates (n, 3) of the subdomain's vertices of global parent ids ``ids``
+    (sorted unique), the same on every rank (collective)."""
+    blocks, pos = sub.owned_dofs_of(ids)
+    xyz = np.asarray(sub.V.tabulate_dof_coordinates(), dtype=np.float64)
+    X = np.zeros((ids.size, 3))
+    X[pos] = xyz[blocks]
+    out: FloatArray = sub.submesh.comm.allreduce(X, op=MPI.SUM)
+    return out
+
+
+def merge_surfaces(surfaces: list[Surface]) -> Surface:
+    """One surface of the triangles of several (vertices shared by id)."""
+    ids = np.concatenate([s.vertex_ids for s in surfaces])
+    xyz = np.concatenate([s.xyz for s in surfaces])
+    tris = np.concatenate([s.vertex_ids[s.triangles] for s in surfaces])
+    uniq, first = np.unique(ids, return_index=True)
+    return Surface(xyz[first], np.searchsorted(uniq, tris).astype(np.int64), uniq)
+
+
+def _snap(pairing: Pairing) -> Pairing:
+    """ξ within :data:`SNAP_TOL` of a vertex's set to it exactly."""
+    xi = pairing.xi.copy()
+    near = np.max(xi, axis=1) > 1.0 - SNAP_TOL
+    xi[near] = np.eye(3)[np.argmax(xi[near], axis=1)]
+    return Pairing(pairing.triangle, xi, pairing.normal, pairing.gap)
+
+
+class SlidingContacts:
+    """The node-to-surface rows of some families of points, re-paired as they slide.
+
+    Args:
+        sub: the explicit subdomain holding the points and the surfaces (its field is what
+            :meth:`update` reads).
+        families: the families, whose rows are stacked in this order.
+        names: the contact group names.
+        tol: the set's closing tolerance (m).
+        reach_message: how a point running off its surface along ``along`` is explained
+            (formatted with ``label``, ``slip_mm``, ``t``).
+
+    Collective over the subdomain's communicator.
+    """
+
+    def __init__(
+        self,
+        sub: Any,
+        families: list[Family],
+        names: list[str],
+        tol: float,
+        reach_message: str = "",
+    ) -> None:
+        self.sub = sub
+        self.comm: MPI.Comm = sub.submesh.comm
+        self.families = families
+        self.names = list(names)
+        self.tol = float(tol)
+        self.reach_message = reach_message
+        bs = sub.bs
+        if bs != 3:
+            raise CraneFemError("node-to-surface contact needs a 3D displacement field")
+        ids = [f.points for f in families] + [f.surface.vertex_ids for f in families]
+        self.ids = np.unique(np.concatenate(ids)) if ids else np.zeros(0, dtype=np.int64)
+        self._blocks, self._pos = sub.owned_dofs_of(self.ids)
+        self.X = vertex_coordinates(sub, self.ids)
+        self._slot_p = [np.searchsorted(self.ids, f.points) for f in families]
+        self._slot_s = [np.searchsorted(self.ids, f.surface.vertex_ids) for f in families]
+        edges = [self._shortest_edge(f.surface) for f in families]
+        self.threshold = REPAIR_FRACTION * min(edges, default=np.inf)
+        self.pairings: list[Pairing] = []
+        self.repairs = 0
+        self.sliding = False
+        self._t0_pairing()
+        self.g0 = self._gaps(self.pairings, self.X)
+
+    @staticmethod
+    def _shortest_edge(s: Surface) -> float:
+        tri = s.xyz[s.triangles]
+        e = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2)
+        return float(e.min(initial=np.inf))
+
+    def _t0_pairing(self) -> None:
+        """The pairing of the reference configuration, ξ snapped (collective only through
+        nothing: pure geometry on data every rank holds)."""
+        self.pairings = []
+        for f, slot in zip(self.families, self._slot_p, strict=True):
+            pairing = _snap(pair_points(self.X[slot], f.surface))
+            self._check_paired(f, pairing, None, 0.0)
+            self.pairings.append(pairing)
+
+    def _check_paired(self, f: Family, pairing: Pairing, x: FloatArray | None, t: float) -> None:
+        """Raise when a point of a family with an ``along`` axis is off its surface's extent
+        along it (at t = 0: any unpaired point is refused)."""
+        lost = ~pairing.paired
+        if not np.any(lost):
+            return
+        if x is None:
+            k = int(np.flatnonzero(lost)[0])
+            raise SlidingError(
+                f"contact point (vertex {int(f.points[k])}) projects onto no triangle of its "
+                "surface at t = 0"
+            )
+        if f.along < 0:
+            return
+        lo = f.surface.xyz[:, f.along].min()
+        hi = f.surface.xyz[:, f.along].max()
+        s = x[:, f.along]
+        off = lost & ((s < lo) | (s > hi))
+        if np.any(off):
+            k = int(np.flatnonzero(off)[0])
+            slot = np.searchsorted(self.ids, f.points[k])
+            slip = float(x[k, f.along] - self.X[slot, f.along])
+            label = int(f.label[k]) if f.label.size else k
+            raise SlidingError(
+                self.reach_message.format(label=label, slip_mm=slip * 1e3, t=t)
+                or f"contact point {k} ran off its surface at t = {t:.6g} s"
+            )
+
+    def rows(self) -> ContactSet:
+        """The current rows of every family, stacked (not collective)."""
+        sets = []
+        bounds = np.cumsum([0, *(f.p for f in self.families)])
+        for j, (f, pairing) in enumerate(zip(self.families, self.pairings, strict=True)):
+            g0 = self.g0[bounds[j] : bounds[j + 1]]
+            cs = surface_rows(
+                self.comm, self.sub, f.points, pairing, f.surface, g0, f.group, self.names
+            )
+            if f.n_tangents and f.mu > 0.0:
+                cs.mu = np.full(f.p, f.mu)
+                cs.tangents = self._tangent_rows(f, pairing)
+            sets.append(cs)
+        out = sets[0]
+        for cs in sets[1:]:
+            out = ContactSet.stack(out, cs)
+        # Every family's groups index the one list of names (stacking would shift them).
+        out.group = np.concatenate([f.group for f in self.families]).astype(np.int64)
+        out.group_names = list(self.names)
+        out.tol = self.tol
+        return out
+
+    def _tangent_rows(self, f: Family, pairing: Pairing) -> TangentRows:
+        """The tangential rows of a family's points: t·(v_p − Σ ξ_i v_i), terms on the ranks
+        owning their DOFs (not collective)."""
+        n_t = f.n_tangents
+        t1, t2 = tangents_of(np.where(pairing.paired[:, None], pairing.normal, [0.0, 0.0, 1.0]))
+        tans = np.stack([t1, t2], axis=1)[:, :n_t]  # (p, n_t, 3)
+        verts = f.surface.vertex_ids[f.surface.triangles[np.maximum(pairing.triangle, 0)]]
+        p = f.p
+        # Terms: (row, vertex, component, coefficient), the point's first, then its vertices'.
+        row = np.arange(p * n_t).reshape(p, n_t)
+        r = [
+            np.repeat(row.ravel(), 3),
+            np.broadcast_to(row[:, None, :, None], (p, 3, n_t, 3)).ravel(),
+        ]
+        v = [
+            np.repeat(f.points, n_t * 3),
+            np.broadcast_to(verts[:, :, None, None], (p, 3, n_t, 3)).ravel(),
+        ]
+        c = [
+            np.tile(np.arange(3), p * n_t),
+            np.broadcast_to(np.arange(3)[None, None, None, :], (p, 3, n_t, 3)).ravel(),
+        ]
+        k = [
+            tans.reshape(-1),
+            (-pairing.xi[:, :, None, None] * tans[:, None, :, :]).reshape(-1),
+        ]
+        rows = np.concatenate(r)
+        vert = np.concatenate(v)
+        comp = np.concatenate(c)
+        val = np.concatenate(k)
+        keep = pairing.paired[rows // n_t] & (val != 0.0)
+        rows, vert, comp, val = rows[keep], vert[keep], comp[keep], val[keep]
+        uniq = np.unique(vert)
+        blocks, pos = self.sub.owned_dofs_of(uniq)
+        owner = np.full(uniq.size, -1, dtype=np.int64)
+        owner[pos] = blocks
+        b = owner[np.searchsorted(uniq, vert)]
+        mine = b >= 0
+        return TangentRows(
+            np.repeat(np.arange(p, dtype=np.int64), n_t),
+            rows[mine].astype(np.int64),
+            (b[mine] * 3 + comp[mine]).astype(np.int64),
+            val[mine].astype(np.float64),
+        )
+
+    def _current(self, u: FloatArray) -> FloatArray:
+        """x = X + u of every vertex the families use (collective)."""
+        U = np.zeros((self.ids.size, 3))
+        U[self._pos] = u.reshape(-1, 3)[self._blocks]
+        return self.X + self.comm.allreduce(U, op=MPI.SUM)
+
+    def drift(self, x: FloatArray) -> float:
+        """The largest tangential drift of a paired point over its triangle since its pairing
+        (m): the tangential part of x_p − Σ ξ_i x_i at the current coordinates ``x`` of
+        :attr:`ids` (at its pairing the point sat on its projection; not collective)."""
+        worst = 0.0
+        for f, pairing, sp, ss in zip(
+            self.families, self.pairings, self._slot_p, self._slot_s, strict=True
+        ):
+            if not np.any(pairing.paired):
+                continue
+            tri = f.surface.triangles[pairing.triangle[pairing.paired]]
+            xs = np.einsum("pk,pkj->pj", pairing.xi[pairing.paired], x[ss][tri])
+            d = x[sp][pairing.paired] - xs
+            n = pairing.normal[pairing.paired]
+            d -= np.einsum("pj,pj->p", d, n)[:, None] * n
+            worst = max(worst, float(np.max(np.linalg.norm(d, axis=1))))
+        return worst
+
+    def _gaps(self, pairings: list[Pairing], x: FloatArray) -> FloatArray:
+        """Each point's distance n·(x_p − Σ ξ_i x_i) + c_p for ``pairings`` at the coordinates
+        ``x`` of :attr:`ids`, :data:`OPEN_GAP` where unpaired (not collective)."""
+        out = []
+        for f, pairing, sp, ss in zip(
+            self.families, pairings, self._slot_p, self._slot_s, strict=True
+        ):
+            tri = f.surface.triangles[np.maximum(pairing.triangle, 0)]
+            xs = np.einsum("pk,pkj->pj", pairing.xi, x[ss][tri])
+            g = np.einsum("pj,pj->p", pairing.normal, x[sp] - xs) + f.offset
+            out.append(np.where(pairing.paired, g, OPEN_GAP))
+        return np.concatenate(out) if out else np.zeros(0)
+
+    def _row_values(self, x: FloatArray) -> FloatArray:
+        """L u of the current rows for the displacements x − X (not collective)."""
+        return self._gaps(self.pairings, x) - self._gaps(self.pairings, self.X)
+
+    def update(self, zone: Any, t: float) -> bool:
+        """Before a macro step (collective): once the points slide, set the gaps to the
+        current distances and, when a drift exceeds the threshold, pair every point again and
+        give the zone its new rows. Returns whether the rows changed.
+
+        Raises:
+            SlidingError: a point ran off its surface's extent (on every rank).
+        """
+        x = self._current(zone.u)
+        drift = self.drift(x)
+        if not self.sliding and drift <= SLIDE_TOL:
+            return False
+        self.sliding = True
+        fresh = self._pair(x, t)
+        exact = self._gaps(fresh, x)
+        # A point projecting onto no triangle (an overhang across) keeps its rows' distance
+        # until they are paired again.
+        held = self._gaps(self.pairings, x)
+        exact = np.where(exact < OPEN_GAP, exact, held)
+        repair = drift > self.threshold
+        if repair:
+            self.pairings = fresh
+            self.repairs += 1
+        lu = self._row_values(x)
+        paired = self._gaps(self.pairings, self.X) < OPEN_GAP
+        self.g0 = np.where(paired, exact - lu, OPEN_GAP)
+        if repair:
+            zone.set_contacts(self.rows())
+        else:
+            zone.set_contact_gaps(self.g0)
+        return repair
+
+    def _pair(self, x: FloatArray, t: float) -> list[Pairing]:
+        """Every point's projection on its deformed surface at the coordinates ``x`` (not
+        collective: every rank holds the same ``x``)."""
+        pairings = []
+        for f, sp, ss in zip(self.families, self._slot_p, self._slot_s, strict=True):
+            deformed = Surface(x[ss], f.surface.triangles, f.surface.vertex_ids)
+            pairing = pair_points(x[sp], deformed)
+            self._check_paired(f, pairing, x[sp], t)
+            pairings.append(pairing)
+        return pairings
+
+    def summary(self) -> dict[str, Any]:
+        """How often the points were paired again, and the drift that triggers it (m)."""
+        return {"repairings": self.repairs, "repair_drift_m": self.threshold}
+
+    def state_dict(self) -> dict[str, Any]:
+        """Each point's triangle, barycentric coordinates and normal, the gaps (a
+        checkpoint)."""
+        out: dict[str, Any] = {
+            "repairs": self.repairs,
+            "sliding": self.sliding,
+            "g0": self.g0.copy(),
+        }
+        for j, pairing in enumerate(self.pairings):
+            out[f"triangle_{j}"] = pairing.triangle.copy()
+            out[f"xi_{j}"] = pairing.xi.copy()
+            out[f"normal_{j}"] = pairing.normal.copy()
+            out[f"gap_{j}"] = pairing.gap.copy()
+        return out
+
+    def load_state_dict(self, state: dict[str, Any], zone: Any) -> None:
+        """Restore the pairing and, when it is not the reference one, the zone's rows
+        (collective)."""
+        self.repairs = int(state["repairs"])
+        self.pairings = [
+            Pairing(
+                np.asarray(state[f"triangle_{j}"], dtype=np.int64),
+                np.asarray(state[f"xi_{j}"], dtype=np.float64),
+                np.asarray(state[f"normal_{j}"], dtype=np.float64),
+                np.asarray(state[f"gap_{j}"], dtype=np.float64),
+            )
+            for j in range(len(self.families))
+        ]
+        self.sliding = bool(state["sliding"])
+        self.g0 = np.asarray(state["g0"], dtype=np.float64)
+        if self.repairs:
+            zone.set_contacts(self.rows())
+        elif self.sliding:
+            zone.set_contact_gaps(self.g0)
