@@ -49,9 +49,19 @@ class WheelSlip:
         pairs: (n, 2) global parent vertex ids, (wheel vertex, rail vertex).
         wheel: (n,) wheel number (1–4) of each pair.
         reach: (4,) the reach of each wheel's pairs (m), :func:`pair_reach` of its patch.
+        enforce: stop a wheel beyond its reach (node-to-node pairs); False: the reach is
+            reported only (node-to-surface contacts stop the run themselves).
     """
 
-    def __init__(self, sub: Subdomain, pairs: IntArray, wheel: IntArray, reach: FloatArray):
+    def __init__(
+        self,
+        sub: Subdomain,
+        pairs: IntArray,
+        wheel: IntArray,
+        reach: FloatArray,
+        enforce: bool = True,
+    ):
+        self.enforce = enforce
         self.comm = sub.submesh.comm
         self.bs = sub.bs
         self.wheel = np.asarray(wheel, dtype=np.int64)
@@ -92,7 +102,7 @@ class WheelSlip:
         self.t_peak[better] = np.broadcast_to(t, better.shape)[better]
         np.maximum(self.peak_pair, worst, out=self.peak_pair)
         over = np.flatnonzero(worst > self.reach)
-        if over.size:
+        if over.size and self.enforce:
             k = int(over[0])
             raise SlipError(
                 f"wheel {k + 1} slid {worst[k] * 1e3:.2f} mm on its rail at t = {t:.6g} s "

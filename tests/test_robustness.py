@@ -143,6 +143,18 @@ def _cases(tmp: Path) -> dict[str, tuple[list[str], list[str]]]:
             ["run", q, "--set", "output.sample_interval=1e-9"],
             ["output.sample_interval = 1e-09 s", "below the time step"],
         ),
+        "zone_margin_overlap": (
+            ["check", q, "--unset", "model.mesh", "--set", "model.zone_margin=0.3"],
+            ["model.zone_margin = 0.3", "overlap"],
+        ),
+        "zone_margin_zero": (
+            ["check", q, "--set", "model.zone_margin=0"],
+            ["model.zone_margin", "greater than 0"],
+        ),
+        "wheel_contact": (
+            ["check", q, "--set", "wheel.contact='faces'"],
+            ["wheel.contact", "'nodes' or 'surface'"],
+        ),
         "outdir_file": (["run", q, "-o", str(as_file)], [f"output directory {as_file} is a file"]),
     }
     unwritable = _unwritable(tmp)

@@ -39,7 +39,7 @@ from mpi4py import MPI
 
 from crane_fem.contact.constraints import ContactSet, TangentRows
 from crane_fem.contact.surface import Pairing, Surface, pair_points, surface_rows
-from crane_fem.errors import CraneFemError
+from crane_fem.errors import CraneFemError, ScenarioError
 
 __all__ = [
     "REPAIR_FRACTION",
@@ -49,6 +49,7 @@ __all__ = [
     "merge_surfaces",
     "tangents_of",
     "vertex_coordinates",
+    "without_vertices",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -138,6 +139,19 @@ def merge_surfaces(surfaces: list[Surface]) -> Surface:
     return Surface(xyz[first], np.searchsorted(uniq, tris).astype(np.int64), uniq)
 
 
+def without_vertices(surface: Surface, ids: IntArray) -> Surface:
+    """The triangles of ``surface`` that touch none of the vertices ``ids``, with the
+    vertices they use."""
+    keep = ~np.any(np.isin(surface.vertex_ids[surface.triangles], ids), axis=1)
+    tris = surface.triangles[keep]
+    used = np.unique(tris)
+    return Surface(
+        surface.xyz[used],
+        np.searchsorted(used, tris).astype(np.int64),
+        surface.vertex_ids[used],
+    )
+
+
 def _snap(pairing: Pairing) -> Pairing:
     """ξ within :data:`SNAP_TOL` of a vertex's set to it exactly."""
     xi = pairing.xi.copy()
@@ -157,6 +171,8 @@ class SlidingContacts:
         tol: the set's closing tolerance (m).
         reach_message: how a point running off its surface along ``along`` is explained
             (formatted with ``label``, ``slip_mm``, ``t``).
+        point_name: what a point's label numbers, in messages ("wheel").
+        surface_key: the scenario key that chose the surfaces, in messages.
 
     Collective over the subdomain's communicator.
     """
@@ -168,7 +184,11 @@ class SlidingContacts:
         names: list[str],
         tol: float,
         reach_message: str = "",
+        point_name: str = "body",
+        surface_key: str = "the contact surface",
     ) -> None:
+        self.point_name = point_name
+        self.surface_key = surface_key
         self.sub = sub
         self.comm: MPI.Comm = sub.submesh.comm
         self.families = families
@@ -215,9 +235,10 @@ class SlidingContacts:
             return
         if x is None:
             k = int(np.flatnonzero(lost)[0])
-            raise SlidingError(
-                f"contact point (vertex {int(f.points[k])}) projects onto no triangle of its "
-                "surface at t = 0"
+            label = f"{self.point_name} {int(f.label[k])}" if f.label.size else "a contact point"
+            raise ScenarioError(
+                f"{label}: its vertex {int(f.points[k])} projects onto no triangle of its "
+                f"contact surface at t = 0 ({self.surface_key})"
             )
         if f.along < 0:
             return
@@ -229,9 +250,9 @@ class SlidingContacts:
             k = int(np.flatnonzero(off)[0])
             slot = np.searchsorted(self.ids, f.points[k])
             slip = float(x[k, f.along] - self.X[slot, f.along])
-            label = int(f.label[k]) if f.label.size else k
+            number = int(f.label[k]) if f.label.size else k
             raise SlidingError(
-                self.reach_message.format(label=label, slip_mm=slip * 1e3, t=t)
+                self.reach_message.format(label=number, slip_mm=slip * 1e3, t=t)
                 or f"contact point {k} ran off its surface at t = {t:.6g} s"
             )
 
@@ -385,6 +406,18 @@ class SlidingContacts:
             self._check_paired(f, pairing, x[sp], t)
             pairings.append(pairing)
         return pairings
+
+    def reach(self) -> dict[int, float]:
+        """How far each labelled body (a wheel) can slide along its family's ``along`` axis,
+        either way, before a point leaves its surface's extent (m), from t = 0; the first
+        family's labels."""
+        f = self.families[0]
+        if f.along < 0 or not f.label.size:
+            return {}
+        lo, hi = f.surface.xyz[:, f.along].min(), f.surface.xyz[:, f.along].max()
+        s = self.X[self._slot_p[0], f.along]
+        room = np.minimum(hi - s, s - lo)
+        return {int(k): float(room[f.label == k].min()) for k in np.unique(f.label)}
 
     def summary(self) -> dict[str, Any]:
         """How often the points were paired again, and the drift that triggers it (m)."""

@@ -60,6 +60,23 @@ class CraneGeometry:
                 f"geometry.trolley_position = {self.trolley_position} puts the trolley off the "
                 f"girders (allowed: [{half:g}, {self.span - half:g}] for span {self.span})"
             )
+        zone = self.wheel_length + 2.0 * self.zone_margin
+        if zone >= self.wheel_base:
+            raise ScenarioError(
+                f"geometry.zone_margin = {self.zone_margin}: the explicit rail zones of a "
+                f"trolley's two wheels on one rail overlap (wheel_length + 2 zone_margin = "
+                f"{zone:g} m, not less than wheel_base = {self.wheel_base})"
+            )
+        ends = (
+            self.trolley_position - 0.5 * (self.wheel_base + zone),
+            self.trolley_position + 0.5 * (self.wheel_base + zone),
+        )
+        if ends[0] < self.end_carriage_width or ends[1] > self.span - self.end_carriage_width:
+            raise ScenarioError(
+                f"geometry.zone_margin = {self.zone_margin}: the explicit rail zones reach "
+                f"y = {ends[0]:g}–{ends[1]:g} m, past the end carriages (rails from "
+                f"{self.end_carriage_width:g} to {self.span - self.end_carriage_width:g} m)"
+            )
         if self.end_carriage_length < self.girder_spacing + self.girder_width:
             raise ScenarioError("geometry.end_carriage_length must span both girders")
         if self.girder_spacing <= self.girder_width:

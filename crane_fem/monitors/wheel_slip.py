@@ -125,4 +125,10 @@ def create_wheel_slip(sim: Simulation) -> WheelSlipMonitor | None:
             for k in range(1, int(crane.wheel.max()) + 1)
         ]
     )
+    if sim.constraints.sliding is not None:
+        # Node-to-surface contacts follow the wheel to the end of its rail zone (they stop
+        # the run there themselves, crane_fem.contact.sliding): the reach is the surface's.
+        room = sim.constraints.sliding.reach()
+        reach = np.array([room[k] for k in range(1, reach.size + 1)])
+        return WheelSlipMonitor(WheelSlip(sub, crane.pairs, crane.wheel, reach, enforce=False))
     return WheelSlipMonitor(WheelSlip(sub, crane.pairs, crane.wheel, reach))

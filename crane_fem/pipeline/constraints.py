@@ -16,6 +16,7 @@ from crane_fem.contact.sliding import (
     SlidingContacts,
     merge_surfaces,
     vertex_coordinates,
+    without_vertices,
 )
 from crane_fem.contact.surface import facing_surface
 from crane_fem.coupling.interface import build_interface, constraint_set
@@ -219,15 +220,25 @@ def _flange_contacts(
 
 
 def _sliding_contacts(
-    sub: Subdomain, crane: CraneMesh, mdl: CraneModel, wheel: Wheel, nodes: ContactSet
+    sub: Subdomain,
+    crane: CraneMesh,
+    mdl: CraneModel,
+    wheel: Wheel,
+    nodes: ContactSet,
+    interface: IntArray,
 ) -> SlidingContacts:
     """The wheels' vertices on the rail tops and the flanges' on the rail sides, node to
     surface (crane_fem.contact.sliding), from their node-to-node rows ``nodes`` (wheel pairs
     then flange pairs): each point's offset c_p keeps its node-to-node gap at t = 0
-    (collective)."""
+    (collective). With friction, the rail tops' and sides' triangles touching the
+    ``interface`` vertices (the zone's ends) are left out: with friction the kernel's contact
+    rows may not share DOFs with the interface's; a wheel then follows its rail to one element
+    short of the zone's end."""
     geo = mdl.geometry()
     tol = 1e-6 * geo.size
     top = facing_surface(sub, np.array([0.0, 0.0, 1.0]), geo.rail_top, 2, tol)
+    if wheel.friction > 0.0:
+        top = without_vertices(top, interface)
     n_pairs = crane.pairs.shape[0]
     families = [
         Family(
@@ -260,10 +271,13 @@ def _sliding_contacts(
                 )
                 for x in rails
             ]
+            side = merge_surfaces(sides)
+            if wheel.friction > 0.0:
+                side = without_vertices(side, interface)
             families.append(
                 Family(
                     fp[mine, 0].astype(np.int64),
-                    merge_surfaces(sides),
+                    side,
                     group[mine],
                     offset[mine],
                     along=1,
@@ -274,9 +288,12 @@ def _sliding_contacts(
     message = (
         "wheel {label} slid {slip_mm:+.1f} mm along its rail at t = {t:.6g} s, off the end of "
         f"its explicit rail zone, which extends model.zone_margin = {geo.zone_margin * 1e3:g} "
-        "mm past the wheel at each end: raise model.zone_margin to follow it further"
+        "mm past the wheel at each end (its contact surface one element less): raise "
+        "model.zone_margin to follow it further"
     )
-    sliding = SlidingContacts(sub, families, names, nodes.tol, message)
+    sliding = SlidingContacts(
+        sub, families, names, nodes.tol, message, "wheel", 'wheel.contact = "surface"'
+    )
     return sliding
 
 
@@ -302,7 +319,7 @@ def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> Cons
             flanges = _flange_contacts(comm, E_sub, mesh.crane, models.preload, sc.model.span)
             contacts = ContactSet.stack(contacts, flanges)
         if sc.wheel.contact == "surface":
-            sliding = _sliding_contacts(E_sub, mesh.crane, sc.model, sc.wheel, contacts)
+            sliding = _sliding_contacts(E_sub, mesh.crane, sc.model, sc.wheel, contacts, vertices)
             contacts = sliding.rows()
     elif sc.contact:
         if E_sub is None:
