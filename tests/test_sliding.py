@@ -134,3 +134,27 @@ def test_a_wheel_run_off_its_rail_zone_stops_naming_the_key(crane_surface) -> No
     msg = str(err.value)
     assert "\n" not in msg
     assert "wheel " in msg and "+70.0 mm" in msg and "model.zone_margin = 60 mm" in msg
+
+
+def test_surface_rows_keep_the_node_to_node_history_where_nothing_slides(tmp_path) -> None:
+    """The quick crane (as written: the refining gc-mean) shaken up to its wheels' lift-off
+    (0.008 s), with its wheels on the rail tops' triangles and with today's node-to-node
+    pairs: the wheels do not slide (their drift stays below 1 µm: the rows and gaps stay
+    those of t = 0), so the histories agree to 1e-10 of their scales (the references'
+    tolerance)."""
+    from conftest import COMM, assert_same_histories
+
+    from crane_fem.driver import run_scenario
+    from crane_fem.scenario import load_scenario
+
+    runs = {}
+    for contact in ("nodes", "surface"):
+        sc = load_scenario(
+            DEMOS / "crane_quick.toml",
+            ["time.end=0.008", "output.xdmf=false", f"wheel.contact='{contact}'"],
+        )
+        runs[contact] = run_scenario(sc, tmp_path / contact, COMM, progress=False)
+    s = runs["surface"].summary
+    assert s["status"] == "completed" and s["node_to_surface"]["repairings"] == 0
+    assert s["node_to_surface"]["gaps_follow_from_s"] is None
+    assert_same_histories(runs["nodes"].history, runs["surface"].history, 1e-10)

@@ -209,6 +209,7 @@ class SlidingContacts:
         self.pairings: list[Pairing] = []
         self.repairs = 0
         self.sliding = False
+        self.sliding_since: float | None = None
         self._t0_pairing()
         self.g0 = self._gaps(self.pairings, self.X)
 
@@ -376,7 +377,8 @@ class SlidingContacts:
         drift = self.drift(x)
         if not self.sliding and drift <= SLIDE_TOL:
             return False
-        self.sliding = True
+        if not self.sliding:
+            self.sliding, self.sliding_since = True, float(t)
         fresh = self._pair(x, t)
         exact = self._gaps(fresh, x)
         # A point projecting onto no triangle (an overhang across) keeps its rows' distance
@@ -420,8 +422,14 @@ class SlidingContacts:
         return {int(k): float(room[f.label == k].min()) for k in np.unique(f.label)}
 
     def summary(self) -> dict[str, Any]:
-        """How often the points were paired again, and the drift that triggers it (m)."""
-        return {"repairings": self.repairs, "repair_drift_m": self.threshold}
+        """How often the points were paired again, the drift that triggers it (m), and when
+        the gaps began to follow the current projection (s; None: never, the rows and gaps
+        of t = 0 throughout)."""
+        return {
+            "repairings": self.repairs,
+            "repair_drift_m": self.threshold,
+            "gaps_follow_from_s": self.sliding_since,
+        }
 
     def state_dict(self) -> dict[str, Any]:
         """Each point's triangle, barycentric coordinates and normal, the gaps (a
@@ -429,6 +437,7 @@ class SlidingContacts:
         out: dict[str, Any] = {
             "repairs": self.repairs,
             "sliding": self.sliding,
+            "sliding_since": -1.0 if self.sliding_since is None else self.sliding_since,
             "g0": self.g0.copy(),
         }
         for j, pairing in enumerate(self.pairings):
@@ -452,6 +461,8 @@ class SlidingContacts:
             for j in range(len(self.families))
         ]
         self.sliding = bool(state["sliding"])
+        since = float(state["sliding_since"])
+        self.sliding_since = None if since < 0.0 else since
         self.g0 = np.asarray(state["g0"], dtype=np.float64)
         if self.repairs:
             zone.set_contacts(self.rows())

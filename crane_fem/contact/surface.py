@@ -89,7 +89,10 @@ def _barycentric(
     """Barycentric coordinates (k, 3) of the projections of points x (k, 3) onto the planes of
     triangles (a, b, c) (k, 3 each), and the projections (k, 3)."""
     e1, e2 = b - a, c - a
-    n = np.cross(e1, e2)
+    n = np.empty_like(e1)  # e1 × e2 (np.cross costs more than the rest on small arrays)
+    n[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+    n[:, 1] = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+    n[:, 2] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
     nn = np.einsum("ij,ij->i", n, n)
     d = x - a
     # Projection onto the plane, then Cramer's rule on the in-plane system.
@@ -140,27 +143,28 @@ def pair_points(
         k = min(2 * k, tri.shape[0])
     near = np.asarray(near, dtype=np.int64).reshape(n_p, k)
     normals = surface.normals
-    best = np.full(n_p, np.inf)
-    best_strict = np.zeros(n_p, dtype=bool)
-    for j in range(k):  # a handful of candidates, each a vectorised pass over all points
-        cand = near[:, j]
-        a, b, c = (surface.xyz[tri[cand, i]] for i in range(3))
-        xi, proj = _barycentric(x, a, b, c)
-        gap = np.einsum("ij,ij->i", x - proj, normals[cand])
-        inside = np.all(xi >= -INSIDE_TOL, axis=1) & (np.abs(gap) <= reach)
-        strict = inside & np.all(xi >= -STRICT_TOL, axis=1)
-        # A triangle holding the point strictly beats one holding it within the border's
-        # tolerance; among equals, the nearest along its normal.
-        better = inside & (
-            (strict & ~best_strict) | ((strict == best_strict) & (np.abs(gap) < best))
-        )
-        best_strict[better] = strict[better]
-        best[better] = np.abs(gap[better])
-        out_t[better] = cand[better]
-        out_xi[better] = np.clip(xi[better], 0.0, 1.0)
-        out_xi[better] /= out_xi[better].sum(axis=1)[:, None]
-        out_n[better] = normals[cand[better]]
-        out_g[better] = gap[better]
+    # Every (point, candidate) pair in one vectorised pass.
+    cand = near.ravel()
+    xr = np.repeat(x, k, axis=0)
+    a, b, c = (surface.xyz[tri[cand, i]] for i in range(3))
+    xi, proj = _barycentric(xr, a, b, c)
+    gap = np.einsum("ij,ij->i", xr - proj, normals[cand])
+    low = xi.min(axis=1)
+    inside = (low >= -INSIDE_TOL) & (np.abs(gap) <= reach)
+    # A triangle holding the point strictly beats one holding it within the border's
+    # tolerance; among equals, the nearest along its normal (the first of equals).
+    rank = np.where(inside, np.where(low >= -STRICT_TOL, 0, 1), 2).reshape(n_p, k)
+    best_rank = rank.min(axis=1)
+    score = np.where(rank == best_rank[:, None], np.abs(gap).reshape(n_p, k), np.inf)
+    j = np.argmin(score, axis=1)
+    pick = np.arange(n_p) * k + j
+    ok = best_rank < 2
+    sel = pick[ok]
+    out_t[ok] = cand[sel]
+    out_xi[ok] = np.clip(xi[sel], 0.0, 1.0)
+    out_xi[ok] /= out_xi[ok].sum(axis=1)[:, None]
+    out_n[ok] = normals[cand[sel]]
+    out_g[ok] = gap[sel]
     return Pairing(out_t, out_xi, out_n, out_g)
 
 

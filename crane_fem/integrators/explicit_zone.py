@@ -18,6 +18,8 @@ import numpy.typing as npt
 import scipy.sparse
 from mpi4py import MPI
 from petsc4py import PETSc
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from crane_fem.contact import ContactSet
 from crane_fem.errors import CraneFemError
@@ -81,6 +83,8 @@ class _Friction:
     W_tt: FloatArray
     local: bool
     iso: npt.NDArray[np.bool_]
+    comp_ptr: IntArray
+    comp_order: IntArray
 
 
 #: A point's Delassus block is taken as w I (closed form) when it is within this of it,
@@ -111,7 +115,9 @@ def _friction_arrays(
     if not nt:
         z, none = np.zeros(0, dtype=np.int64), np.zeros(pc, dtype=bool)
         W_nt, W_tt = np.zeros((pc, 0)), np.zeros((0, 0))
-        return _Friction(0, z, z, np.zeros(0), mu, first, count, W_nt, W_tt, True, none)
+        one = np.array([0, pc], dtype=np.int64)
+        order = np.arange(pc, dtype=np.int64)
+        return _Friction(0, z, z, np.zeros(0), mu, first, count, W_nt, W_tt, True, none, one, order)
     comm = contacts.comm
     shared = np.intersect1d(interface.dofs, np.concatenate([contacts.dofs, t.dofs])).size
     if comm.allreduce(shared, op=MPI.SUM):
@@ -125,6 +131,12 @@ def _friction_arrays(
     point = np.r_[np.arange(pc), t.point]
     other = point[:, None] != point[None, :]
     local = not bool(np.any(Wf[other] != 0.0))
+    # The points coupled through shared DOFs, in components (solved one by one).
+    i, j = np.nonzero(Wf)
+    graph = coo_matrix((np.ones(i.size), (point[i], point[j])), shape=(pc, pc))
+    n_comp, label = connected_components(graph, directed=False)
+    comp_order = np.argsort(label, kind="stable").astype(np.int64)
+    comp_ptr = np.searchsorted(label[comp_order], np.arange(n_comp + 1)).astype(np.int64)
     iso = np.zeros(pc, dtype=bool)
     for c in range(pc):
         rows = np.flatnonzero(point == c)
@@ -143,6 +155,8 @@ def _friction_arrays(
         W_tt,
         local,
         iso,
+        comp_ptr,
+        comp_order,
     )
 
 
@@ -201,6 +215,8 @@ def constraint_arrays(
         "W_tt": fr.W_tt,
         "fric_local": fr.local,
         "iso": fr.iso,
+        "fric_ptr": fr.comp_ptr,
+        "fric_order": fr.comp_order,
         "_stack": stack,
         "_W": W,
     }

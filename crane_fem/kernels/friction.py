@@ -376,11 +376,32 @@ def contacts_friction(
             for a in range(nk):
                 lam_t[k0 + a] = rl[1 + a]
         return
-    # Points coupled through shared DOFs: one problem over the closed points.
-    idx = np.flatnonzero(closed)
+    # Points coupled through shared DOFs: one problem over the closed points of each
+    # component of the coupling (the problems of two components are independent).
+    for k in range(z.fric_ptr.size - 1):
+        comp = z.fric_order[z.fric_ptr[k] : z.fric_ptr[k + 1]]
+        n_closed = 0
+        for c in comp:
+            if closed[c]:
+                n_closed += 1
+        if n_closed == 0:
+            continue
+        idx = np.empty(n_closed, dtype=np.int64)
+        n_closed = 0
+        for c in comp:
+            if closed[c]:
+                idx[n_closed] = c
+                n_closed += 1
+        _coupled(z, st, idx, lam_c, flags)
+
+
+@numba.njit(cache=True)
+def _coupled(z: Zone, st: ZoneState, idx: IntArray, lam_c: FloatArray, flags: IntArray) -> None:
+    """The frictional problem of the closed points ``idx``, coupled through shared DOFs, as
+    one problem (:func:`solve_coulomb`). Not collective."""
+    pc = lam_c.size
+    lam_t, qc, qt = st.lam_t, st.qc, st.qt
     na = idx.size
-    if na == 0:
-        return
     ptr = np.zeros(na + 1, dtype=np.int64)
     for a in range(na):
         ptr[a + 1] = ptr[a] + 1 + z.t_count[idx[a]]

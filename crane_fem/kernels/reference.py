@@ -67,7 +67,12 @@ def friction_impulses(
     worst = 0.0
     groups = [[int(c)] for c in np.flatnonzero(closed)]
     if not z.fric_local and groups:
-        groups = [[c for g in groups for c in g]]
+        # One problem per component of the points coupled through shared DOFs.
+        comps = (
+            z.fric_order[z.fric_ptr[k] : z.fric_ptr[k + 1]] for k in range(z.fric_ptr.size - 1)
+        )
+        groups = [[int(c) for c in comp if closed[c]] for comp in comps]
+        groups = [g for g in groups if g]
     for pts in groups:
         rows = [row for c in pts for row in rows_of(c)]
         if len(pts) == 1 and z.t_count[pts[0]] == 0:

@@ -106,7 +106,10 @@ class Zone(NamedTuple):
     #: points with μ > 0, terms (row, owned DOF, coefficient, position in ``c_dofs``); per
     #: contact point its friction coefficient, first tangential row and row count (0: none);
     #: the Delassus blocks W_nt (p_c × n_t) and W_tt of the tangential rows; whether no two
-    #: points share a DOF (``fric_local``: point by point) and which points' blocks are w I.
+    #: points share a DOF (``fric_local``: point by point) and which points' blocks are w I;
+    #: otherwise the points coupled through shared DOFs, component by component (the
+    #: points of component k: ``fric_order[fric_ptr[k]:fric_ptr[k + 1]]``), each solved as
+    #: one problem.
     nt: int
     f_row: IntArray
     f_dof: IntArray
@@ -119,6 +122,8 @@ class Zone(NamedTuple):
     W_tt: FloatArray
     fric_local: bool
     iso: BoolArray
+    fric_ptr: IntArray
+    fric_order: IntArray
 
 
 class ZoneState(NamedTuple):
