@@ -200,12 +200,13 @@ def _resume(ckpt: Checkpoint, sim: Simulation, books: LoopBooks, restart: Path) 
         )
     error, rec = None, None
     try:
-        sim.integrators.method.load_state_dict(ckpt.state["method"])
-        books.load_state_dict(ckpt.state["books"])
+        # The contact rows first: the explicit zone's state arrays are sized by them.
         sliding = sim.constraints.sliding
         if sliding is not None:
             zone = sim.integrators.system.E
             sliding.load_state_dict(ckpt.state["sliding"], zone)
+        sim.integrators.method.load_state_dict(ckpt.state["method"])
+        books.load_state_dict(ckpt.state["books"])
         rec = sim.integrators.system.resume_record(ckpt.state["record"])
     except (KeyError, ValueError, TypeError) as exc:
         error = (

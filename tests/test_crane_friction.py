@@ -119,19 +119,24 @@ def test_wheel_section_belongs_to_a_crane() -> None:
 @pytest.mark.mpi
 def test_three_component_scene_guides_holds_and_agrees_on_two_ranks(tmp_path) -> None:
     """demos/crane_3c.toml (El Centro 270/180 ×2.5 across/along, vertical ×8; braked μ = 0.3;
-    flanges 5 mm off the rails) through its first flight and landing (0.14 s), serially and
-    under mpiexec -n 2. Off its rails (0.052–0.125 s) the trolley keeps its horizontal
-    velocity while the rails follow the ground: it lands with its flanges on the rails' sides.
-    Every wheel strikes a flange (measured: one impact each at 0.136–0.139 s, 11–14 kN) and
-    stays guided, its slip across ≈ the clearance (measured 5.01 mm); along the rails the
-    trolley has slid 9.9 mm, inside the 12.5 mm its pairs follow. Both runs report it, and
-    agree to round-off (1e-8 of each column's scale, as the quick scene's two-rank test) in
-    the history and in the wheels' and flanges' tables."""
-    args = [str(SCENE), "--set", "output.xdmf=false", "--set", "time.end=0.14", "--no-progress"]
+    flanges 5 mm off the rails; node-to-surface contact) through its first flight and landing
+    (0.145 s), serially and under mpiexec -n 2. Off its rails (0.052–0.125 s) the trolley
+    keeps its horizontal velocity while the rails follow the ground: it lands with its
+    flanges on the rails' sides. Every wheel strikes a flange (measured: one impact each at
+    0.134–0.140 s, 5–22 kN) and stays guided, its slip across ≈ the clearance (measured
+    5.0 mm); along the rails the trolley has slid 9.9 mm, the contact rows paired again on
+    the way (13 times by 0.16 s). Both runs report it, and agree to round-off (1e-8 of each
+    column's scale, as the quick scene's two-rank test) in the history and in the wheels'
+    and flanges' tables: the re-pairings happen at the same macro steps on both."""
+    args = [str(SCENE), "--set", "output.xdmf=false", "--set", "time.end=0.145", "--no-progress"]
     serial, par = run_serial_and_two_ranks(args, tmp_path)
     s1, s2 = (json.loads((d / "summary.json").read_text()) for d in (serial, par))
     assert s1["status"] == s2["status"] == "completed" and s2["mpi_size"] == 2
     assert s1["energy_balance_error"] <= 1e-9
+    assert s1["node_to_surface"]["repairings"] >= 5
+    a, b = s1["node_to_surface"], s2["node_to_surface"]
+    assert a["repairings"] == b["repairings"]
+    assert b["gaps_follow_from_s"] == pytest.approx(a["gaps_follow_from_s"], rel=1e-12)
     for k, w in s1["wheels"].items():
         sides = [s1["flanges"][f"{side}_{k}"] for side in ("in", "out")]
         assert sum(len(f["impacts"]) for f in sides) >= 1, k
@@ -171,14 +176,31 @@ def test_three_component_scene_guides_holds_and_agrees_on_two_ranks(tmp_path) ->
 
 
 def test_frictionless_free_wheels_stop_the_three_component_run(shared_tmp) -> None:
-    """The same record with μ = 0 and free wheels: nothing holds the trolley along its rails,
-    and the first flight carries it past the pairs' reach; the run stops there with one line
+    """The same record with μ = 0 and free wheels, on node-to-node pairs: nothing holds the
+    trolley along its rails, and the first flight carries it past the pairs' reach; the run
+    stops there with one line
     naming the wheel and its slip (measured: wheel 4, 12.50 mm at t = 0.114 s, 12.11 along),
     instead of running on."""
     sets = ["output.xdmf=false", "wheel.friction=0.0", "wheel.braked=false"]
-    sc = load_scenario(SCENE, sets)
+    sc = load_scenario(SCENE, [*sets, "wheel.contact='nodes'"])
     with pytest.raises(SlipError, match=r"wheel \d slid 12\.\d\d mm on its rail at t = 0\.1"):
         run_scenario(sc, shared_tmp, COMM, progress=False)
     s = json.loads((shared_tmp / "summary.json").read_text())
     assert s["status"] == "failed" and "beyond the 12.50 mm" in s["diagnosis"]
     assert 0.05 < s["t_reached_s"] < 0.125  # during the first flight
+
+
+def test_frictionless_free_wheels_slide_on_over_the_rail_tops(shared_tmp) -> None:
+    """The same frictionless free trolley with the scene's node-to-surface contact: its
+    wheels slide past the 12.5 mm where node-to-node pairs stop (measured 15 mm along by
+    0.16 s, 18 mm by 0.3 s), the rows paired again on the way, inside the 60 mm the
+    frictionless rail tops reach; the energy balance closes (issue 24: ≤ 1e-8; measured
+    1.5e-10 over 0.3 s)."""
+    sets = ["output.xdmf=false", "wheel.friction=0.0", "wheel.braked=false", "time.end=0.16"]
+    s = run_scenario(load_scenario(SCENE, sets), shared_tmp, COMM, progress=False).summary
+    assert s["status"] == "completed"
+    assert s["node_to_surface"]["repairings"] >= 5
+    along = [w["max_slip_along_m"] for w in s["wheels"].values()]
+    assert max(along) > REACH
+    assert all(w["slip_reach_m"] == pytest.approx(0.06) for w in s["wheels"].values())
+    assert s["energy_balance_error"] <= 1e-8

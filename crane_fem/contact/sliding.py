@@ -16,13 +16,14 @@ along the normal, whichever triangle the point is on.
 
 At every macro-step boundary :meth:`SlidingContacts.update` measures, for every point, the
 tangential drift of x_p − Σ ξ_i x_i since its pairing (the rows are the tangent plane's of the
-pairing). Once a point has drifted more than :data:`SLIDE_TOL`, every boundary projects the
+pairing). Once a point has drifted more than :data:`SLIDE_TOL` of the surface's shortest edge
+(since the start, or its pairing), every boundary projects the
 points on the current surface (ξ', n') and sets the gaps so that g0 + L u is the current
 distance n'·(x_p − Σ ξ'_i x_i) + c_p: the gap of a point crossing an edge is continuous,
 whichever rows carry it. The rows themselves are paired again, lazily, when a drift exceeds
 :data:`REPAIR_FRACTION` of the surface's shortest edge
 (:meth:`~crane_fem.integrators.explicit_zone.ExplicitZone.set_contacts`, no recompilation).
-Until a point drifts :data:`SLIDE_TOL`, rows and gaps stay those of t = 0, where each point
+Until a point drifts that far, rows and gaps stay those of t = 0, where each point
 sits on a surface vertex (ξ = e_i snapped exactly): the node-to-node rows of that pair, so a
 scene that does not slide keeps its node-to-node history to round-off (docs/theory-notes.md
 §12).
@@ -36,9 +37,10 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
+from scipy.spatial import cKDTree
 
 from crane_fem.contact.constraints import ContactSet, TangentRows
-from crane_fem.contact.surface import Pairing, Surface, pair_points, surface_rows
+from crane_fem.contact.surface import Pairing, Surface, canonical, pair_points, surface_rows
 from crane_fem.errors import CraneFemError, ScenarioError
 
 __all__ = [
@@ -48,6 +50,7 @@ __all__ = [
     "SlidingError",
     "merge_surfaces",
     "tangents_of",
+    "triangles_where",
     "vertex_coordinates",
     "without_vertices",
 ]
@@ -59,10 +62,12 @@ IntArray = npt.NDArray[np.int64]
 #: of the surface's shortest edge (the rows are the tangent plane's of the pairing: on a flat
 #: surface exact, on a bent one off by its slope times the drift).
 REPAIR_FRACTION = 0.05
-#: A drift (m) below which the rows and gaps stay as paired (a scene that does not slide keeps
-#: its t = 0 rows bit for bit); above it, the gaps follow the current projection (the first
-#: refresh moves a gap by the surface's slope times this: 1e-9 m at a slope of 1e-3).
-SLIDE_TOL = 1.0e-6
+#: A drift, as a fraction of the surface's shortest edge, below which the rows and gaps stay
+#: as paired: the wheels' and rails' elastic tangential strain under vertical shaking (µm)
+#: is no slide, and a scene that does not slide keeps its t = 0 rows bit for bit. Above it,
+#: the gaps follow the current projection; the first refresh moves a gap by the surface's
+#: slope times this drift (18 µm on the committed meshes: 2e-9 m at a slope of 1e-4).
+SLIDE_TOL = 1.0e-3
 #: An unpaired point's gap (m): it cannot close.
 OPEN_GAP = 1.0e3
 #: Barycentric coordinates within this of a vertex's are that vertex's exactly (t = 0: a
@@ -90,6 +95,10 @@ class Family:
             (a rail's length, y); −1: none (leaving it across is an overhang, the point's
             row is then empty).
         label: (p,) the body each point belongs to, for messages (a wheel's number).
+        vertices: None (the points act on the triangles), or the surface vertices (indices
+            into its arrays) the points act on one each, the nearest, re-paired as they move
+            (node to nearest node: the crane's frictionless flanges on the rail sides, whose
+            triangles all touch the interface at the rail's foot).
     """
 
     points: IntArray
@@ -100,6 +109,7 @@ class Family:
     mu: float = 0.0
     along: int = -1
     label: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    vertices: IntArray | None = None
 
     @property
     def p(self) -> int:
@@ -136,13 +146,19 @@ def merge_surfaces(surfaces: list[Surface]) -> Surface:
     xyz = np.concatenate([s.xyz for s in surfaces])
     tris = np.concatenate([s.vertex_ids[s.triangles] for s in surfaces])
     uniq, first = np.unique(ids, return_index=True)
-    return Surface(xyz[first], np.searchsorted(uniq, tris).astype(np.int64), uniq)
+    return canonical(Surface(xyz[first], np.searchsorted(uniq, tris).astype(np.int64), uniq))
 
 
 def without_vertices(surface: Surface, ids: IntArray) -> Surface:
     """The triangles of ``surface`` that touch none of the vertices ``ids``, with the
     vertices they use."""
-    keep = ~np.any(np.isin(surface.vertex_ids[surface.triangles], ids), axis=1)
+    return triangles_where(
+        surface, ~np.any(np.isin(surface.vertex_ids[surface.triangles], ids), axis=1)
+    )
+
+
+def triangles_where(surface: Surface, keep: npt.NDArray[np.bool_]) -> Surface:
+    """The triangles of ``surface`` where ``keep``, with the vertices they use."""
     tris = surface.triangles[keep]
     used = np.unique(tris)
     return Surface(
@@ -206,9 +222,13 @@ class SlidingContacts:
         self._slot_s = [np.searchsorted(self.ids, f.surface.vertex_ids) for f in families]
         edges = [self._shortest_edge(f.surface) for f in families]
         self.threshold = REPAIR_FRACTION * min(edges, default=np.inf)
+        self.slide_tol = SLIDE_TOL * min(edges, default=np.inf)
         self.pairings: list[Pairing] = []
         self.repairs = 0
         self.sliding = False
+        # Each point's tangential offset over its triangle when it was paired (the first
+        # update's, for the pairing of t = 0: the preload's lateral strain is not a slide).
+        self.offsets: FloatArray | None = None
         self.sliding_since: float | None = None
         self._t0_pairing()
         self.g0 = self._gaps(self.pairings, self.X)
@@ -223,10 +243,30 @@ class SlidingContacts:
         """The pairing of the reference configuration, ξ snapped (collective only through
         nothing: pure geometry on data every rank holds)."""
         self.pairings = []
-        for f, slot in zip(self.families, self._slot_p, strict=True):
-            pairing = _snap(pair_points(self.X[slot], f.surface))
+        for f, sp, ss in zip(self.families, self._slot_p, self._slot_s, strict=True):
+            pairing = _snap(self._project(f, self.X[sp], self.X[ss]))
             self._check_paired(f, pairing, None, 0.0)
             self.pairings.append(pairing)
+
+    @staticmethod
+    def _project(f: Family, xp: FloatArray, xs: FloatArray) -> Pairing:
+        """The points at ``xp`` on their family's surface with vertices at ``xs`` (not
+        collective): on the triangle that holds their projection, or on the nearest allowed
+        vertex (``f.vertices``), ξ that vertex's in a triangle holding it."""
+        deformed = Surface(xs, f.surface.triangles, f.surface.vertex_ids)
+        if f.vertices is None:
+            return pair_points(xp, deformed)
+        _, near = cKDTree(xs[f.vertices]).query(xp)
+        vert = f.vertices[np.asarray(near, dtype=np.int64)]
+        tris = f.surface.triangles
+        # A triangle holding each vertex, and the vertex's place in it.
+        holder = np.full(xs.shape[0], -1, dtype=np.int64)
+        holder[tris.ravel()[::-1]] = np.repeat(np.arange(tris.shape[0]), 3)[::-1]
+        tri = holder[vert]
+        xi = (tris[tri] == vert[:, None]).astype(np.float64)
+        normal = deformed.normals[tri]
+        gap = np.einsum("pj,pj->p", normal, xp - xs[vert])
+        return Pairing(tri, xi, normal, gap)
 
     def _check_paired(self, f: Family, pairing: Pairing, x: FloatArray | None, t: float) -> None:
         """Raise when a point of a family with an ``along`` axis is off its surface's extent
@@ -330,22 +370,39 @@ class SlidingContacts:
         U[self._pos] = u.reshape(-1, 3)[self._blocks]
         return self.X + self.comm.allreduce(U, op=MPI.SUM)
 
-    def drift(self, x: FloatArray) -> float:
-        """The largest tangential drift of a paired point over its triangle since its pairing
-        (m): the tangential part of x_p − Σ ξ_i x_i at the current coordinates ``x`` of
-        :attr:`ids` (at its pairing the point sat on its projection; not collective)."""
-        worst = 0.0
+    def _tangential(self, x: FloatArray) -> FloatArray:
+        """Each point's tangential offset (p_total, 3) over its current pairing at the
+        coordinates ``x``: the tangential part of x_p − Σ ξ_i x_i (zeros where unpaired or on a
+        vertex by choice). Not collective."""
+        out = []
         for f, pairing, sp, ss in zip(
             self.families, self.pairings, self._slot_p, self._slot_s, strict=True
         ):
-            if not np.any(pairing.paired):
-                continue
-            tri = f.surface.triangles[pairing.triangle[pairing.paired]]
-            xs = np.einsum("pk,pkj->pj", pairing.xi[pairing.paired], x[ss][tri])
-            d = x[sp][pairing.paired] - xs
-            n = pairing.normal[pairing.paired]
-            d -= np.einsum("pj,pj->p", d, n)[:, None] * n
-            worst = max(worst, float(np.max(np.linalg.norm(d, axis=1))))
+            d = np.zeros((f.p, 3))
+            on = pairing.paired
+            if f.vertices is None and np.any(on):
+                tri = f.surface.triangles[pairing.triangle[on]]
+                xs = np.einsum("pk,pkj->pj", pairing.xi[on], x[ss][tri])
+                dd = x[sp][on] - xs
+                n = pairing.normal[on]
+                d[on] = dd - np.einsum("pj,pj->p", dd, n)[:, None] * n
+            out.append(d)
+        return np.concatenate(out) if out else np.zeros((0, 3))
+
+    def drift(self, x: FloatArray) -> float:
+        """The largest tangential drift of a point over its triangle since its pairing (m)
+        at the current coordinates ``x`` of :attr:`ids`; +inf when a point that acts on a
+        vertex has another allowed vertex nearer. Not collective."""
+        ref = self.offsets if self.offsets is not None else 0.0
+        d = self._tangential(x) - ref
+        worst = float(np.max(np.linalg.norm(d, axis=1), initial=0.0))
+        for f, pairing, sp, ss in zip(
+            self.families, self.pairings, self._slot_p, self._slot_s, strict=True
+        ):
+            if f.vertices is not None:
+                now = self._project(f, x[sp], x[ss])
+                if np.any(now.triangle != pairing.triangle) or np.any(now.xi != pairing.xi):
+                    worst = np.inf
         return worst
 
     def _gaps(self, pairings: list[Pairing], x: FloatArray) -> FloatArray:
@@ -374,8 +431,10 @@ class SlidingContacts:
             SlidingError: a point ran off its surface's extent (on every rank).
         """
         x = self._current(zone.u)
+        if self.offsets is None:  # the first call: the start's offsets are no slide
+            self.offsets = self._tangential(x)
         drift = self.drift(x)
-        if not self.sliding and drift <= SLIDE_TOL:
+        if not self.sliding and drift <= self.slide_tol:
             return False
         if not self.sliding:
             self.sliding, self.sliding_since = True, float(t)
@@ -388,6 +447,7 @@ class SlidingContacts:
         repair = drift > self.threshold
         if repair:
             self.pairings = fresh
+            self.offsets = self._tangential(x)
             self.repairs += 1
         lu = self._row_values(x)
         paired = self._gaps(self.pairings, self.X) < OPEN_GAP
@@ -403,8 +463,7 @@ class SlidingContacts:
         collective: every rank holds the same ``x``)."""
         pairings = []
         for f, sp, ss in zip(self.families, self._slot_p, self._slot_s, strict=True):
-            deformed = Surface(x[ss], f.surface.triangles, f.surface.vertex_ids)
-            pairing = pair_points(x[sp], deformed)
+            pairing = self._project(f, x[sp], x[ss])
             self._check_paired(f, pairing, x[sp], t)
             pairings.append(pairing)
         return pairings
@@ -439,6 +498,7 @@ class SlidingContacts:
             "sliding": self.sliding,
             "sliding_since": -1.0 if self.sliding_since is None else self.sliding_since,
             "g0": self.g0.copy(),
+            "offsets": np.zeros((0, 3)) if self.offsets is None else self.offsets.copy(),
         }
         for j, pairing in enumerate(self.pairings):
             out[f"triangle_{j}"] = pairing.triangle.copy()
@@ -464,6 +524,8 @@ class SlidingContacts:
         since = float(state["sliding_since"])
         self.sliding_since = None if since < 0.0 else since
         self.g0 = np.asarray(state["g0"], dtype=np.float64)
+        offsets = np.asarray(state["offsets"], dtype=np.float64).reshape(-1, 3)
+        self.offsets = offsets if offsets.shape[0] else None
         if self.repairs:
             zone.set_contacts(self.rows())
         elif self.sliding:

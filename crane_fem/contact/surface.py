@@ -27,7 +27,7 @@ from scipy.spatial import cKDTree
 
 from crane_fem.contact.constraints import ContactSet
 
-__all__ = ["Pairing", "Surface", "facing_surface", "pair_points", "surface_rows"]
+__all__ = ["Pairing", "Surface", "canonical", "facing_surface", "pair_points", "surface_rows"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -282,4 +282,22 @@ def facing_surface(sub: Any, normal: FloatArray, level: float, axis: int, tol: f
     ids, inverse = np.unique(all_tris.ravel(), return_inverse=True)
     xyz = np.zeros((ids.size, 3))
     xyz[inverse] = all_xyz.reshape(-1, 3)
-    return Surface(xyz, inverse.reshape(-1, 3).astype(np.int64), ids.astype(np.int64))
+    return canonical(Surface(xyz, inverse.reshape(-1, 3).astype(np.int64), ids.astype(np.int64)))
+
+
+def canonical(surface: Surface) -> Surface:
+    """The same triangles in an order that depends on their coordinates only: sorted by
+    centroid, each starting at its lexicographically smallest vertex (orientation kept). The
+    ranks gather a surface in partition order and number vertices by partition; the pairing's
+    choices among equals (a point on an edge, the triangle that holds a vertex) follow the
+    triangles' order, so serial and parallel runs make the same ones."""
+    tri = surface.triangles
+    if tri.shape[0] == 0:
+        return surface
+    txyz = surface.xyz[tri]  # (m, 3, 3)
+    first = np.array([np.lexsort((t[:, 2], t[:, 1], t[:, 0]))[0] for t in txyz], dtype=np.int64)
+    roll = (first[:, None] + np.arange(3)[None, :]) % 3
+    tri = np.take_along_axis(tri, roll, axis=1)
+    c = surface.xyz[tri].mean(axis=1)
+    order = np.lexsort((c[:, 2], c[:, 1], c[:, 0]))
+    return Surface(surface.xyz, tri[order], surface.vertex_ids)

@@ -15,6 +15,7 @@ from crane_fem.contact.sliding import (
     Family,
     SlidingContacts,
     merge_surfaces,
+    triangles_where,
     vertex_coordinates,
     without_vertices,
 )
@@ -230,10 +231,11 @@ def _sliding_contacts(
     """The wheels' vertices on the rail tops and the flanges' on the rail sides, node to
     surface (crane_fem.contact.sliding), from their node-to-node rows ``nodes`` (wheel pairs
     then flange pairs): each point's offset c_p keeps its node-to-node gap at t = 0
-    (collective). With friction, the rail tops' and sides' triangles touching the
-    ``interface`` vertices (the zone's ends) are left out: with friction the kernel's contact
-    rows may not share DOFs with the interface's; a wheel then follows its rail to one element
-    short of the zone's end."""
+    (collective). With friction, the kernel's contact rows may not share DOFs with the
+    interface's: the rail tops' triangles touching the ``interface`` vertices (the zone's
+    ends) are left out, so that a wheel follows its rail to one element short of the zone's
+    end; the flanges act node to nearest node on the rail sides' vertices off the interface
+    (the sides' triangles all reach the rail's foot)."""
     geo = mdl.geometry()
     tol = 1e-6 * geo.size
     top = facing_surface(sub, np.array([0.0, 0.0, 1.0]), geo.rail_top, 2, tol)
@@ -272,8 +274,14 @@ def _sliding_contacts(
                 for x in rails
             ]
             side = merge_surfaces(sides)
-            if wheel.friction > 0.0:
-                side = without_vertices(side, interface)
+            # The rail's sides only: the wheels, as wide as their rails, have their own sides
+            # in the same planes above the rail top.
+            below = side.xyz[side.triangles, 2].max(axis=1) <= geo.rail_top + tol
+            side = triangles_where(side, below)
+            # Each flange vertex on the nearest rail-side vertex off the interface: the rail
+            # sides' triangles all reach the rail's foot, which is interface (with friction
+            # the kernel's contact rows may not share its DOFs).
+            allowed = np.flatnonzero(~np.isin(side.vertex_ids, interface)).astype(np.int64)
             families.append(
                 Family(
                     fp[mine, 0].astype(np.int64),
@@ -282,6 +290,7 @@ def _sliding_contacts(
                     offset[mine],
                     along=1,
                     label=crane.flange_wheel[mine].astype(np.int64),
+                    vertices=allowed if wheel.friction > 0.0 else None,
                 )
             )
     names = list(nodes.group_names)
