@@ -301,6 +301,7 @@ def test_restart_of_the_crane(shared_tmp) -> None:
     _check_restart(_crane(0.013), _crane(0.011, 20), _crane(0.013, 20), shared_tmp)
 
 
+@pytest.mark.serial  # bit for bit serially; two-rank restarts: the crane's and the bar's tests
 def test_restart_of_wheels_sliding_on_their_rail_tops(shared_tmp) -> None:
     """The quick crane shaken across its rails (1 g, frictionless, no flanges) with its
     wheels on the rail tops' triangles (wheel.contact = "surface"): the wheels slide 1–2 mm,

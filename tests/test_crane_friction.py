@@ -190,6 +190,7 @@ def test_frictionless_free_wheels_stop_the_three_component_run(shared_tmp) -> No
     assert 0.05 < s["t_reached_s"] < 0.125  # during the first flight
 
 
+@pytest.mark.serial  # its two-rank behaviour: the 3c scene's two-rank test, with re-pairings
 def test_frictionless_free_wheels_slide_on_over_the_rail_tops(shared_tmp) -> None:
     """The same frictionless free trolley with the scene's node-to-surface contact: its
     wheels slide past the 12.5 mm where node-to-node pairs stop (measured 15 mm along by

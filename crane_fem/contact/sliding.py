@@ -418,10 +418,6 @@ class SlidingContacts:
             out.append(np.where(pairing.paired, g, OPEN_GAP))
         return np.concatenate(out) if out else np.zeros(0)
 
-    def _row_values(self, x: FloatArray) -> FloatArray:
-        """L u of the current rows for the displacements x − X (not collective)."""
-        return self._gaps(self.pairings, x) - self._gaps(self.pairings, self.X)
-
     def update(self, zone: Any, t: float) -> bool:
         """Before a macro step (collective): once the points slide, set the gaps to the
         current distances and, when a drift exceeds the threshold, pair every point again and
@@ -442,16 +438,17 @@ class SlidingContacts:
         exact = self._gaps(fresh, x)
         # A point projecting onto no triangle (an overhang across) keeps its rows' distance
         # until they are paired again.
-        held = self._gaps(self.pairings, x)
-        exact = np.where(exact < OPEN_GAP, exact, held)
+        now = self._gaps(self.pairings, x)
+        exact = np.where(exact < OPEN_GAP, exact, now)
         repair = drift > self.threshold
         if repair:
             self.pairings = fresh
             self.offsets = self._tangential(x)
             self.repairs += 1
-        lu = self._row_values(x)
-        paired = self._gaps(self.pairings, self.X) < OPEN_GAP
-        self.g0 = np.where(paired, exact - lu, OPEN_GAP)
+            now = self._gaps(fresh, x)
+        # g0 + L u = exact, with L u = (the rows' distance now) − (theirs at X).
+        ref = self._gaps(self.pairings, self.X)
+        self.g0 = np.where(ref < OPEN_GAP, exact - (now - ref), OPEN_GAP)
         if repair:
             zone.set_contacts(self.rows())
         else:
