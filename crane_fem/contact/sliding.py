@@ -37,6 +37,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from crane_fem.contact.constraints import ContactSet, TangentRows
@@ -232,6 +234,32 @@ class SlidingContacts:
         self.sliding_since: float | None = None
         self._t0_pairing()
         self.g0 = self._gaps(self.pairings, self.X)
+        self._extents = [
+            self._piece_extent(f, pr) for f, pr in zip(families, self.pairings, strict=True)
+        ]
+
+    @staticmethod
+    def _piece_extent(f: Family, pairing: Pairing) -> FloatArray:
+        """Per point (p, 2): the extent along ``f.along`` of the connected piece of its
+        surface that holds its triangle at t = 0 (a rail zone's top: a crane's surface has
+        one piece per zone, with gaps between them)."""
+        out = np.full((f.p, 2), [-np.inf, np.inf])
+        if f.along < 0:
+            return out
+        tri = f.surface.triangles
+        n_v = f.surface.xyz.shape[0]
+        edges = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+        graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n_v, n_v))
+        _, label = connected_components(graph, directed=False)
+        coord = f.surface.xyz[:, f.along]
+        n_l = int(label.max(initial=-1)) + 1
+        lo = np.full(n_l, np.inf)
+        hi = np.full(n_l, -np.inf)
+        np.minimum.at(lo, label, coord)
+        np.maximum.at(hi, label, coord)
+        piece = label[tri[np.maximum(pairing.triangle, 0), 0]]
+        out[:, 0], out[:, 1] = lo[piece], hi[piece]
+        return out
 
     @staticmethod
     def _shortest_edge(s: Surface) -> float:
@@ -283,10 +311,9 @@ class SlidingContacts:
             )
         if f.along < 0:
             return
-        lo = f.surface.xyz[:, f.along].min()
-        hi = f.surface.xyz[:, f.along].max()
+        extent = self._extents[self.families.index(f)]
         s = x[:, f.along]
-        off = lost & ((s < lo) | (s > hi))
+        off = lost & ((s < extent[:, 0]) | (s > extent[:, 1]))
         if np.any(off):
             k = int(np.flatnonzero(off)[0])
             slot = np.searchsorted(self.ids, f.points[k])
@@ -467,14 +494,14 @@ class SlidingContacts:
 
     def reach(self) -> dict[int, float]:
         """How far each labelled body (a wheel) can slide along its family's ``along`` axis,
-        either way, before a point leaves its surface's extent (m), from t = 0; the first
+        either way, before a point leaves its piece of surface (m), from t = 0; the first
         family's labels."""
         f = self.families[0]
         if f.along < 0 or not f.label.size:
             return {}
-        lo, hi = f.surface.xyz[:, f.along].min(), f.surface.xyz[:, f.along].max()
+        extent = self._extents[0]
         s = self.X[self._slot_p[0], f.along]
-        room = np.minimum(hi - s, s - lo)
+        room = np.minimum(extent[:, 1] - s, s - extent[:, 0])
         return {int(k): float(room[f.label == k].min()) for k in np.unique(f.label)}
 
     def summary(self) -> dict[str, Any]:
