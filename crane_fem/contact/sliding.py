@@ -42,7 +42,14 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from crane_fem.contact.constraints import ContactSet, TangentRows
-from crane_fem.contact.surface import Pairing, Surface, canonical, pair_points, surface_rows
+from crane_fem.contact.surface import (
+    Pairing,
+    Surface,
+    canonical,
+    owned_terms,
+    pair_points,
+    surface_rows,
+)
 from crane_fem.errors import CraneFemError, ScenarioError
 
 __all__ = [
@@ -377,18 +384,12 @@ class SlidingContacts:
         comp = np.concatenate(c)
         val = np.concatenate(k)
         keep = pairing.paired[rows // n_t] & (val != 0.0)
-        rows, vert, comp, val = rows[keep], vert[keep], comp[keep], val[keep]
-        uniq = np.unique(vert)
-        blocks, pos = self.sub.owned_dofs_of(uniq)
-        owner = np.full(uniq.size, -1, dtype=np.int64)
-        owner[pos] = blocks
-        b = owner[np.searchsorted(uniq, vert)]
-        mine = b >= 0
+        mine, dofs = owned_terms(self.sub, vert[keep], comp[keep])
         return TangentRows(
             np.repeat(np.arange(p, dtype=np.int64), n_t),
-            rows[mine].astype(np.int64),
-            (b[mine] * 3 + comp[mine]).astype(np.int64),
-            val[mine].astype(np.float64),
+            rows[keep][mine].astype(np.int64),
+            dofs,
+            val[keep][mine].astype(np.float64),
         )
 
     def _current(self, u: FloatArray) -> FloatArray:

@@ -27,7 +27,15 @@ from scipy.spatial import cKDTree
 
 from crane_fem.contact.constraints import ContactSet
 
-__all__ = ["Pairing", "Surface", "canonical", "facing_surface", "pair_points", "surface_rows"]
+__all__ = [
+    "Pairing",
+    "Surface",
+    "canonical",
+    "facing_surface",
+    "owned_terms",
+    "pair_points",
+    "surface_rows",
+]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -177,6 +185,20 @@ class _OwnedDofs(Protocol):
     def owned_dofs_of(self, vertices: IntArray) -> tuple[IntArray, IntArray]: ...
 
 
+def owned_terms(
+    sub: _OwnedDofs, vert: IntArray, comp: IntArray
+) -> tuple[npt.NDArray[np.bool_], IntArray]:
+    """Which terms (global vertex ``vert``, component ``comp``) act on DOFs this rank owns,
+    and those DOFs' local indices (not collective)."""
+    uniq = np.unique(vert)
+    blocks, pos = sub.owned_dofs_of(uniq)
+    owner = np.full(uniq.size, -1, dtype=np.int64)
+    owner[pos] = blocks
+    b = owner[np.searchsorted(uniq, vert)]
+    mine = b >= 0
+    return mine, (b[mine] * sub.bs + comp[mine]).astype(np.int64)
+
+
 def surface_rows(
     comm: MPI.Comm,
     sub: _OwnedDofs,
@@ -209,19 +231,13 @@ def surface_rows(
     comp = np.concatenate(c_all)
     val = np.concatenate(k_all)
     keep = paired[rows] & (val != 0.0)
-    rows, vert, comp, val = rows[keep], vert[keep], comp[keep], val[keep]
-    uniq = np.unique(vert)
-    blocks, pos = sub.owned_dofs_of(uniq)
-    owner_block = np.full(uniq.size, -1, dtype=np.int64)
-    owner_block[pos] = blocks
-    b = owner_block[np.searchsorted(uniq, vert)]
-    mine = b >= 0
+    mine, dofs = owned_terms(sub, vert[keep], comp[keep])
     return ContactSet(
         comm,
         np.asarray(g0, dtype=np.float64),
-        rows[mine].astype(np.int64),
-        (b[mine] * bs + comp[mine]).astype(np.int64),
-        val[mine].astype(np.float64),
+        rows[keep][mine].astype(np.int64),
+        dofs,
+        val[keep][mine].astype(np.float64),
         np.asarray(group, dtype=np.int64),
         list(names),
         tol=tol,
