@@ -278,9 +278,11 @@ class SlidingContacts:
         """The pairing of the reference configuration, ξ snapped (collective only through
         nothing: pure geometry on data every rank holds)."""
         self.pairings = []
-        for f, sp, ss in zip(self.families, self._slot_p, self._slot_s, strict=True):
+        for j, (f, sp, ss) in enumerate(
+            zip(self.families, self._slot_p, self._slot_s, strict=True)
+        ):
             pairing = _snap(self._project(f, self.X[sp], self.X[ss]))
-            self._check_paired(f, pairing, None, 0.0)
+            self._check_paired(j, pairing, None, 0.0)
             self.pairings.append(pairing)
 
     @staticmethod
@@ -303,9 +305,10 @@ class SlidingContacts:
         gap = np.einsum("pj,pj->p", normal, xp - xs[vert])
         return Pairing(tri, xi, normal, gap)
 
-    def _check_paired(self, f: Family, pairing: Pairing, x: FloatArray | None, t: float) -> None:
-        """Raise when a point of a family with an ``along`` axis is off its surface's extent
-        along it (at t = 0: any unpaired point is refused)."""
+    def _check_paired(self, j: int, pairing: Pairing, x: FloatArray | None, t: float) -> None:
+        """Raise when a point of family ``j``, if it has an ``along`` axis, is off its piece
+        of surface along it (at t = 0: any unpaired point is refused)."""
+        f = self.families[j]
         lost = ~pairing.paired
         if not np.any(lost):
             return
@@ -318,7 +321,7 @@ class SlidingContacts:
             )
         if f.along < 0:
             return
-        extent = self._extents[self.families.index(f)]
+        extent = self._extents[j]
         s = x[:, f.along]
         off = lost & ((s < extent[:, 0]) | (s > extent[:, 1]))
         if np.any(off):
@@ -487,9 +490,11 @@ class SlidingContacts:
         """Every point's projection on its deformed surface at the coordinates ``x`` (not
         collective: every rank holds the same ``x``)."""
         pairings = []
-        for f, sp, ss in zip(self.families, self._slot_p, self._slot_s, strict=True):
+        for j, (f, sp, ss) in enumerate(
+            zip(self.families, self._slot_p, self._slot_s, strict=True)
+        ):
             pairing = self._project(f, x[sp], x[ss])
-            self._check_paired(f, pairing, x[sp], t)
+            self._check_paired(j, pairing, x[sp], t)
             pairings.append(pairing)
         return pairings
 
