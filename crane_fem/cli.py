@@ -1,5 +1,5 @@
-"""The ``crane-fem`` command: ``run``, ``check`` and ``mesh`` a scenario; ``plot`` its outputs;
-``bench`` the methods."""
+"""The ``crane-fem`` command: ``run``, ``check`` and ``mesh`` a scenario; its ``modes``;
+``plot`` its outputs; ``bench`` the methods."""
 
 from __future__ import annotations
 
@@ -41,14 +41,24 @@ def _key_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _version() -> str:
+    """The installed distribution's version (importlib.metadata), else the package's."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("crane_fem")
+    except PackageNotFoundError:
+        from crane_fem import __version__
+
+        return __version__
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="crane-fem",
         description="Seismic analysis of structures with impacts (CD-Lagrange, Newmark, GC).",
     )
-    from crane_fem import __version__
-
-    parser.add_argument("--version", action="version", version=f"crane-fem {__version__}")
+    parser.add_argument("--version", action="version", version=f"crane-fem {_version()}")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a scenario")
     run.add_argument("scenario", type=Path, help="scenario TOML file")
@@ -77,6 +87,34 @@ def _parser() -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="validate a scenario without running it")
     check.add_argument("scenario", type=Path)
     _key_options(check)
+    modes = sub.add_parser(
+        "modes",
+        help="natural modes with the contacts closed, and the response-spectrum estimate",
+    )
+    modes.add_argument("scenario", type=Path)
+    modes.add_argument("--n", type=int, default=20, metavar="N", help="the N lowest modes (20)")
+    modes.add_argument(
+        "--out", type=Path, default=None, help="default: out/<scenario file stem>_modes"
+    )
+    modes.add_argument(
+        "--degree", type=int, choices=(1, 2), default=1, help="Lagrange degree (1: the runs')"
+    )
+    modes.add_argument(
+        "--damping",
+        type=float,
+        default=None,
+        metavar="ZETA",
+        help="one damping ratio for every mode (default: the scenario's Rayleigh damping "
+        "per mode, 5 %% without one)",
+    )
+    modes.add_argument(
+        "--compare",
+        type=Path,
+        default=None,
+        metavar="RUN_DIR",
+        help="a `crane-fem run` directory: its peaks beside the estimate, with RS/TH",
+    )
+    _key_options(modes)
     plot = sub.add_parser(
         "plot", help="figures of a run directory, or of the runs in its subdirectories"
     )
@@ -163,6 +201,8 @@ def main(argv: list[str] | None = None) -> int:
                 info = write_crane_mesh(sc.model.geometry(), path)
                 print(f"crane-fem: wrote {path} ({info}) and {mesh_sidecar(path)}")
             return 0
+        if args.command == "modes":
+            return _modes(sc, args, comm)
         if args.command == "check":
             with _one_line_warnings():
                 what = _check(sc, comm)
@@ -257,6 +297,20 @@ def _run(sc: Scenario, args: argparse.Namespace, comm: Any) -> int:
         extra = [f for f in ("results.csv", "spectra.csv") if (Path(outdir) / f).exists()]
         files = ["history.csv", "summary.json", *extra, *xdmf]
         print(f"crane-fem: outputs in {outdir}/ ({', '.join(files)})")
+    return 0
+
+
+def _modes(sc: Scenario, args: argparse.Namespace, comm: Any) -> int:
+    """Modal analysis and response-spectrum estimate; the table on rank 0 (collective)."""
+    from crane_fem.modes import report_lines, run_modes
+
+    out = args.out if args.out is not None else Path("out") / f"{args.scenario.stem}_modes"
+    with _one_line_warnings():
+        report = run_modes(sc, comm, args.n, out, args.degree, args.damping, args.compare)
+    if comm.rank == 0:
+        for line in report_lines(report):
+            print(f"crane-fem: {line}")
+        print(f"crane-fem: outputs in {out}/ (modes.json, modes.xdmf, modes.h5)")
     return 0
 
 

@@ -1,0 +1,118 @@
+"""``crane-fem modes``: mesh the scenario, solve the closed structure's lowest modes, write
+their shapes, estimate the seismic loads by response spectrum, compare with a run."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+from mpi4py import MPI
+
+from crane_fem.errors import ScenarioError
+from crane_fem.modes.eigen import solve_modes
+from crane_fem.modes.estimate import spectral_estimate
+from crane_fem.modes.operators import assemble_closed_structure
+from crane_fem.modes.report import (
+    ModesReport,
+    compare_with_run,
+    read_run_summary,
+    report_dict,
+)
+from crane_fem.modes.spectral import modal_damping
+from crane_fem.modes.xdmf import write_mode_shapes
+from crane_fem.scenario import BarModel, Scenario
+
+__all__ = ["run_modes"]
+
+
+def _agree(comm: MPI.Comm, error: str | None) -> None:
+    """Raise the first rank's error on every rank (collective)."""
+    errors = [e for e in comm.allgather(error) if e is not None]
+    if errors:
+        raise ScenarioError(errors[0])
+
+
+def run_modes(
+    sc: Scenario,
+    comm: MPI.Comm,
+    n: int,
+    out: Path,
+    degree: int = 1,
+    damping: float | None = None,
+    compare: Path | None = None,
+) -> ModesReport:
+    """Compute, write (``out/modes.json``, ``out/modes.xdmf``) and return the modal analysis
+    and the response-spectrum estimate of a scenario (collective over ``comm``; rank 0
+    writes the JSON).
+
+    Args:
+        sc: the scenario (3D model with clamped vertices).
+        n: how many of the lowest modes.
+        out: the output directory.
+        degree: Lagrange degree of the displacement (1: the runs' discretisation).
+        damping: one damping ratio for every mode, or None for the scenario's (Rayleigh per
+            mode, or 5 % when it has none).
+        compare: a ``crane-fem run`` directory whose peaks to set beside the estimate; the
+            record's window is then that run's [0, t_reached].
+
+    Raises:
+        ScenarioError: bad input (n < 1 or above the free DOFs, a 1D bar, no clamped
+            vertex, a run directory without summary.json, --compare without ground motion),
+            the same line on every rank.
+    """
+    from crane_fem.pipeline import build_mesh
+
+    if n < 1:
+        raise ScenarioError(f"modes: --n must be at least 1 (got {n})")
+    if degree not in (1, 2):
+        raise ScenarioError(f"modes: --degree must be 1 or 2 (got {degree})")
+    if damping is not None and not 0.0 <= damping < 1.0:
+        raise ScenarioError(f"modes: --damping must be a ratio in [0, 1) (got {damping})")
+    if isinstance(sc.model, BarModel):
+        raise ScenarioError("modes: the structure must be 3D (model.kind 'bar' is 1D)")
+    summary = None
+    window = sc.time.end
+    if compare is not None:
+        if not sc.loading.ground_motions:
+            raise ScenarioError("modes --compare: the scenario has no ground motion to estimate")
+        error = None
+        try:
+            summary = read_run_summary(compare)
+        except ScenarioError as exc:
+            error = str(exc)
+        _agree(comm, error)
+        assert summary is not None
+        # The run's window; its last macro step may pass time.end by a fraction of a step.
+        reached = float(summary.get("t_reached_s", window))
+        window = min(reached, float(summary.get("time_end_s", reached)))
+    mesh = build_mesh(sc, comm)
+    if mesh.fixed_vertices.size == 0:
+        raise ScenarioError("modes: the structure has no clamped vertex (it has rigid modes)")
+    mat = sc.material
+    gravity = np.asarray(sc.loading.gravity, dtype=np.float64)
+    st = assemble_closed_structure(mesh, mat.E, mat.nu, mat.rho, gravity, degree)
+    n_free = st.n_free
+    try:
+        if n > n_free:
+            raise ScenarioError(f"modes: --n {n} is more than the {n_free} free DOFs")
+        basis = solve_modes(st, n)
+        # The run's damping C = α M + β K (given as such or as a ratio at two frequencies)
+        # is what each mode sees in the time history.
+        zeta = modal_damping(basis.omega, mat.rayleigh_coefficients, damping)
+        write_mode_shapes(Path(out) / "modes.xdmf", st, basis)
+        estimate = None
+        if sc.loading.ground_motions:
+            estimate = spectral_estimate(st, basis, sc, zeta, window)
+    finally:
+        st.destroy()
+    rows = compare_with_run(estimate, summary) if estimate is not None and summary else []
+    report = ModesReport(
+        sc.name, degree, n_free, st.mass_total, basis, zeta, estimate, rows, compare
+    )
+    if comm.rank == 0:
+        Path(out).mkdir(parents=True, exist_ok=True)
+        text = json.dumps(report_dict(report), indent=2)
+        (Path(out) / "modes.json").write_text(text + "\n", encoding="utf-8")
+    comm.barrier()
+    return report

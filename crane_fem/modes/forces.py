@@ -1,0 +1,132 @@
+"""Forces of a displacement of the closed structure: each clamped face's reaction and each
+wheel's normal contact force, and the static solve that gives the displacements."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from crane_fem.errors import CraneFemError
+from crane_fem.modes.operators import ClosedStructure
+from crane_fem.reactions import face_labels
+
+__all__ = ["ForceRecovery", "Forces", "StiffnessSolver"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+
+@dataclass(frozen=True, eq=False)
+class Forces:
+    """Forces of ``m`` displacement fields (global, identical on every rank).
+
+    Attributes:
+        support: (m, faces, 3) force of each clamped face on the structure, N (faces
+            numbered as the runs' ``supports``: by y, then x, of their points).
+        wheel: (m, wheels) normal contact force of each wheel, the sum over its pairs of
+            k_p (u_rail − u_wheel)·e_z, N (positive in compression); (m, 0) without pairs.
+    """
+
+    support: FloatArray
+    wheel: FloatArray
+
+
+class ForceRecovery:
+    """Maps displacements of the free DOFs to :class:`Forces` (collective; built once).
+
+    The face reaction is K_cf u_f (the rows of the unconstrained stiffness at the clamped
+    DOFs; the clamped DOFs do not move), the force that keeps the face at rest against the
+    elastic forces; with a body load f the static reaction is K_cf u_f − f_c.
+    """
+
+    def __init__(self, st: ClosedStructure) -> None:
+        self.st = st
+        comm = st.comm
+        xyz = st.V.tabulate_dof_coordinates()
+        labels, self.centres = face_labels(xyz[st.clamped // 3], comm)
+        self.labels = labels
+        self.n_faces = int(self.centres.shape[0])
+        self.n_wheels = int(st.wheel.max(initial=0))
+        # Position, in the owned free DOFs, of the z DOF of each pair's wheel and rail vertex
+        # that this rank owns (a clamped vertex has none: it does not move).
+        z_pos = np.flatnonzero(st.free % 3 == 2)
+        z_vertex = st.block_vertex[st.free[z_pos] // 3]
+        position = dict(zip(z_vertex.tolist(), z_pos.tolist(), strict=True))
+        self._ends: list[tuple[IntArray, IntArray]] = []
+        for side in (0, 1):
+            at = np.array([position.get(v, -1) for v in st.pairs[:, side].tolist()], np.int64)
+            which = np.flatnonzero(at >= 0)
+            self._ends.append((at[which], which.astype(np.int64)))
+        self._x = st.K_cf.createVecRight()
+        self._r = st.K_cf.createVecLeft()
+
+    def __call__(self, U: FloatArray, body: FloatArray | None = None) -> Forces:
+        """The forces of the owned free-DOF displacements ``U`` (m, owned free DOFs), with
+        ``body`` (owned clamped DOFs, N) the body load at the clamped DOFs, subtracted from
+        every reaction (collective)."""
+        st = self.st
+        U = np.atleast_2d(U)
+        m = U.shape[0]
+        local = np.zeros((m, self.n_faces, 3))
+        comp = st.clamped % 3
+        for k in range(m):
+            self._x.array[:] = U[k]
+            st.K_cf.mult(self._x, self._r)
+            r = np.array(self._r.array_r, dtype=np.float64)
+            if body is not None:
+                r -= body
+            np.add.at(local[k], (self.labels, comp), r)
+        support = np.asarray(st.comm.allreduce(local, op=MPI.SUM), dtype=np.float64)
+        p = st.pairs.shape[0]
+        uz = np.zeros((2, m, p))
+        for side, (pos, which) in enumerate(self._ends):
+            uz[side][:, which] = U[:, pos]
+        uz = np.asarray(st.comm.allreduce(uz, op=MPI.SUM), dtype=np.float64)
+        pair_force = st.k_p * (uz[1] - uz[0])  # compressive on the wheel
+        wheel = np.zeros((m, self.n_wheels))
+        for w in range(self.n_wheels):
+            wheel[:, w] = pair_force[:, st.wheel == w + 1].sum(axis=1)
+        return Forces(support, wheel)
+
+    def destroy(self) -> None:
+        """Destroy the work vectors (collective)."""
+        self._x.destroy()
+        self._r.destroy()
+
+
+class StiffnessSolver:
+    """K_ff u = f by one MUMPS factorisation, reused (collective; options prefix
+    ``crane_fem_modes_static_``). Owns its KSP: :meth:`destroy`."""
+
+    def __init__(self, st: ClosedStructure) -> None:
+        self.comm = st.comm
+        self.ksp = PETSc.KSP().create(st.K.getComm())
+        self.ksp.setOptionsPrefix("crane_fem_modes_static_")
+        self.ksp.setOperators(st.K)
+        self.ksp.setType(PETSc.KSP.Type.PREONLY)
+        pc = self.ksp.getPC()
+        pc.setType(PETSc.PC.Type.LU)
+        pc.setFactorSolverType("mumps")
+        self.ksp.setFromOptions()
+        self._b = st.K.createVecLeft()
+        self._x = st.K.createVecRight()
+
+    def solve(self, f: FloatArray) -> FloatArray:
+        """u (owned free DOFs, m) for the load ``f`` (owned free DOFs, N) (collective)."""
+        self._b.array[:] = f
+        self.ksp.solve(self._b, self._x)
+        ok = self.comm.allreduce(bool(np.all(np.isfinite(self._x.array_r))), op=MPI.LAND)
+        if self.ksp.is_diverged or not ok:
+            raise CraneFemError(
+                f"modes: the static MUMPS solve failed (KSP reason {self.ksp.getConvergedReason()})"
+            )
+        return np.array(self._x.array_r, dtype=np.float64)
+
+    def destroy(self) -> None:
+        """Destroy the KSP and its vectors (collective)."""
+        for obj in (self.ksp, self._b, self._x):
+            obj.destroy()

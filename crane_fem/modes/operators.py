@@ -1,0 +1,254 @@
+"""The whole structure as one linear elastic body with its contacts closed: stiffness and
+consistent mass on the free DOFs, the rows of the clamped DOFs, and the wheel/rail ties.
+
+All subdomains are one body on the parent mesh (the subdomain split is a choice of time
+integrators, not of mechanics). For the crane, every wheel/rail node pair is tied by a stiff
+spring k_p in all three components, k_p the largest diagonal entry of K (the preload's spring,
+:mod:`crane_fem.preload`). Why all three and not the normal (z) alone:
+
+* with z alone the trolley keeps three rigid modes (x, y translation, rotation about z), K is
+  singular and shift-and-invert at σ = 0 cannot factor it; the preload's cure, an isostatic
+  point support, would hold the trolley horizontally by single vertices, whose point-spring
+  flexibility in a 3D continuum depends on the mesh (it diverges logarithmically with
+  refinement), so the trolley's horizontal modes would too;
+* tying the three components over every pair of the four wheel patches is the closed contact
+  with sticking friction: a well-defined, mesh-independent linearisation. It is exact for the
+  vertical (normal) contact, the direction of the scenes' shaking. Horizontally it holds the
+  wheels on the rails, which the flanges (across) and rolling resistance (along) do only in
+  part: horizontal results are those of a trolley that does not slide.
+
+The flange pairs have clearance: they are left open. Clamped DOFs are removed (submatrices
+of the free DOFs), so K_ff and M_ff are symmetric positive definite and the eigenproblem
+has no spurious eigenvalue from Dirichlet rows.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import dolfinx
+import dolfinx.fem.petsc
+import numpy as np
+import numpy.typing as npt
+import ufl
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from crane_fem.pipeline.mesh import MeshStage
+
+__all__ = ["ClosedStructure", "assemble_closed_structure", "vertex_of_block"]
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+
+@dataclass
+class ClosedStructure:
+    """K φ = ω² M φ of the structure with closed contacts (collective objects over ``comm``).
+    Owns ``K``, ``M``, ``K_cf``: call :meth:`destroy` (collective).
+
+    DOFs are those of the vector space ``V`` (block size 3), in dolfinx's owned ordering;
+    ``free``/``clamped`` are owned local DOF indices (block × 3 + component, sorted), the
+    local rows of ``K``/``M`` and of ``K_cf`` in that order.
+
+    Attributes:
+        V: the displacement space on the parent mesh (P1 or P2).
+        K: stiffness on the free DOFs with the ties, N/m.
+        M: consistent mass on the free DOFs, kg.
+        K_cf: rows of the clamped DOFs of the unconstrained stiffness, columns of the free
+            DOFs: the support's force on the structure is K_cf u_f (N).
+        free, clamped: owned local DOF indices.
+        block_vertex: global parent vertex of every owned DOF block (−1 for a P2 edge DOF).
+        pairs: (p, 2) global vertex ids (wheel, rail) of the tied pairs; (0, 2) if none.
+        wheel: wheel number (1–4) of each pair.
+        k_p: the ties' stiffness, N/m (0 without pairs).
+        gravity_load: owned free-DOF body load of gravity, ∫ ρ g·w dx (N).
+        gravity_clamped: the same load on the owned clamped DOFs (N).
+        mass_total: ∫ ρ dx over the whole mesh (kg, global).
+    """
+
+    comm: MPI.Comm
+    V: dolfinx.fem.FunctionSpace
+    K: PETSc.Mat
+    M: PETSc.Mat
+    K_cf: PETSc.Mat
+    free: IntArray
+    clamped: IntArray
+    block_vertex: IntArray
+    pairs: IntArray
+    wheel: IntArray
+    k_p: float
+    gravity_load: FloatArray
+    gravity_clamped: FloatArray
+    mass_total: float
+
+    @property
+    def n_free(self) -> int:
+        """Free DOFs (global)."""
+        return int(self.K.getSize()[0])
+
+    def destroy(self) -> None:
+        """Destroy the PETSc matrices (collective)."""
+        for mat in (self.K, self.M, self.K_cf):
+            mat.destroy()
+
+
+def vertex_of_block(V: dolfinx.fem.FunctionSpace) -> IntArray:
+    """Global parent vertex id of every local DOF block (owned, then ghosts) of a Lagrange
+    space, −1 for blocks on edges, faces or cells (not collective)."""
+    msh = V.mesh
+    tdim = msh.topology.dim
+    msh.topology.create_connectivity(tdim, 0)
+    c2v = msh.topology.connectivity(tdim, 0).array.reshape(-1, tdim + 1)
+    imap = V.dofmap.index_map
+    n_blocks = imap.size_local + imap.num_ghosts
+    local = np.full(n_blocks, -1, dtype=np.int32)
+    layout = V.dofmap.dof_layout
+    cells = V.dofmap.list
+    for i in range(tdim + 1):  # the cell's i-th vertex holds these local DOFs
+        for d in layout.entity_dofs(0, i):
+            local[cells[:, d]] = c2v[:, i]
+    out = np.full(n_blocks, -1, dtype=np.int64)
+    on_vertex = local >= 0
+    out[on_vertex] = msh.topology.index_map(0).local_to_global(local[on_vertex])
+    return out
+
+
+def _clamped_blocks(V: dolfinx.fem.FunctionSpace, fixed_vertices: IntArray) -> IntArray:
+    """Local DOF blocks (owned and ghost) on the clamped vertices and, for P2, on the edges
+    joining two clamped vertices (not collective)."""
+    vb = vertex_of_block(V)
+    blocks = np.flatnonzero(np.isin(vb, fixed_vertices))
+    if V.element.basix_element.degree > 1:
+        msh = V.mesh
+        msh.topology.create_connectivity(1, 0)
+        msh.topology.create_connectivity(1, msh.topology.dim)
+        e2v = msh.topology.connectivity(1, 0).array.reshape(-1, 2)
+        gv = np.asarray(msh.topology.index_map(0).local_to_global(e2v.ravel().astype(np.int32)))
+        edges = np.flatnonzero(np.isin(gv, fixed_vertices).reshape(-1, 2).all(axis=1))
+        edge_blocks = dolfinx.fem.locate_dofs_topological(V, 1, edges.astype(np.int32))
+        blocks = np.union1d(blocks, edge_blocks)
+    return blocks.astype(np.int64)
+
+
+def _global_blocks(V: dolfinx.fem.FunctionSpace, vertices: IntArray) -> dict[int, int]:
+    """Global DOF block of each of ``vertices`` (global ids), on every rank (collective)."""
+    imap = V.dofmap.index_map
+    n_own = imap.size_local
+    vb = vertex_of_block(V)[:n_own]
+    sel = np.flatnonzero(np.isin(vb, vertices))
+    gb = np.asarray(imap.local_to_global(sel.astype(np.int32)), dtype=np.int64)
+    out: dict[int, int] = {}
+    for ids, blocks in V.mesh.comm.allgather((vb[sel], gb)):
+        out.update(zip(ids.tolist(), blocks.tolist(), strict=True))
+    return out
+
+
+def _add_ties(K: PETSc.Mat, V: dolfinx.fem.FunctionSpace, pairs: IntArray, k_p: float) -> None:
+    """Add k_p [[1, −1], [−1, 1]] between the wheel and rail DOFs of every pair, in each
+    component; each rank adds the pairs whose wheel block it owns (collective: assembles)."""
+    block_of = _global_blocks(V, pairs.ravel())
+    lo, hi = V.dofmap.index_map.local_range
+    K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)  # type: ignore[arg-type]
+    ke = (k_p * np.array([[1.0, -1.0], [-1.0, 1.0]])).ravel().tolist()
+    for w, r in pairs.tolist():
+        bw, br = block_of[w], block_of[r]
+        if not lo <= bw < hi:
+            continue
+        for c in range(3):
+            idx = [3 * bw + c, 3 * br + c]
+            K.setValues(idx, idx, ke, addv=True)  # addv=True: ADD_VALUES
+    K.assemble()
+
+
+def assemble_closed_structure(
+    mesh: MeshStage, E: float, nu: float, rho: float, gravity: FloatArray, degree: int = 1
+) -> ClosedStructure:
+    """Assemble K (with the wheel/rail ties), the consistent M and the clamped rows of the
+    structure on the parent mesh (collective over ``mesh.comm``).
+
+    Args:
+        mesh: the pipeline's mesh stage: clamped vertices, the crane's pairs, and the
+            per-cell density (carrying a hoisted mass) when it has one.
+        E, nu: Young's modulus (Pa) and Poisson's ratio.
+        rho: density (kg/m³), used where ``mesh.density`` is None.
+        gravity: gravity vector (m/s²), for the static load.
+        degree: Lagrange degree of the displacement (1 as the runs; 2 for references).
+
+    Returns:
+        The operators; the caller destroys them.
+    """
+    msh = mesh.tagged.mesh
+    comm = msh.comm
+    V = dolfinx.fem.functionspace(msh, ("Lagrange", degree, (3,)))
+    density: dolfinx.fem.Function | dolfinx.fem.Constant
+    if mesh.density is not None:
+        density = dolfinx.fem.Function(dolfinx.fem.functionspace(msh, ("DG", 0)))
+        density.x.array[density.function_space.dofmap.list[:, 0]] = mesh.density
+    else:
+        density = dolfinx.fem.Constant(msh, np.float64(rho))
+    mu = E / (2.0 * (1.0 + nu))
+    lmbda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+    u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
+
+    def eps(z: ufl.Argument) -> ufl.core.expr.Expr:
+        return ufl.sym(ufl.grad(z))
+
+    sigma = 2.0 * mu * eps(u) + lmbda * ufl.tr(eps(u)) * ufl.Identity(3)
+    dx = ufl.dx(domain=msh)
+    K_all = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(ufl.inner(sigma, eps(w)) * dx))
+    K_all.assemble()
+    M_all = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(density * ufl.inner(u, w) * dx))
+    M_all.assemble()
+    g = dolfinx.fem.Constant(msh, np.asarray(gravity, dtype=np.float64))
+    fvec = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(density * ufl.inner(g, w) * dx))
+    fvec.ghostUpdate(addv=True, mode="reverse")  # addv=True: ADD_VALUES
+    f_own = np.array(fvec.array_r, dtype=np.float64)
+    fvec.destroy()
+    mass_total = comm.allreduce(
+        float(np.real(dolfinx.fem.assemble_scalar(dolfinx.fem.form(density * dx)))), op=MPI.SUM
+    )
+
+    pairs = np.zeros((0, 2), dtype=np.int64)
+    wheel = np.zeros(0, dtype=np.int64)
+    k_p = 0.0
+    if mesh.crane is not None and mesh.crane.pairs.size:
+        pairs = np.asarray(mesh.crane.pairs, dtype=np.int64)
+        wheel = np.asarray(mesh.crane.wheel, dtype=np.int64)
+        diag = K_all.getDiagonal()
+        k_p = comm.allreduce(float(np.max(diag.array_r, initial=0.0)), op=MPI.MAX)
+        diag.destroy()
+        _add_ties(K_all, V, pairs, k_p)
+
+    imap = V.dofmap.index_map
+    n_own = imap.size_local
+    fixed_blocks = _clamped_blocks(V, mesh.fixed_vertices)
+    fixed_blocks = fixed_blocks[fixed_blocks < n_own]
+    is_fixed = np.zeros(3 * n_own, dtype=bool)
+    is_fixed[(3 * fixed_blocks[:, None] + np.arange(3)).ravel()] = True
+    free = np.flatnonzero(~is_fixed).astype(np.int64)
+    clamped = np.flatnonzero(is_fixed).astype(np.int64)
+    start = 3 * imap.local_range[0]
+    is_free = PETSc.IS().createGeneral((free + start).astype(np.int32), comm=comm)
+    is_clamped = PETSc.IS().createGeneral((clamped + start).astype(np.int32), comm=comm)
+    K = K_all.createSubMatrix(is_free, is_free)
+    M = M_all.createSubMatrix(is_free, is_free)
+    K_cf = K_all.createSubMatrix(is_clamped, is_free)
+    for obj in (K_all, M_all, is_free, is_clamped):
+        obj.destroy()
+    return ClosedStructure(
+        comm=comm,
+        V=V,
+        K=K,
+        M=M,
+        K_cf=K_cf,
+        free=free,
+        clamped=clamped,
+        block_vertex=vertex_of_block(V)[:n_own],
+        pairs=pairs,
+        wheel=wheel,
+        k_p=k_p,
+        gravity_load=f_own[free],
+        gravity_clamped=f_own[clamped],
+        mass_total=float(mass_total),
+    )
