@@ -247,7 +247,17 @@ def _summary_head(sc: Scenario, sim: Simulation, comm: MPI.Comm) -> dict[str, An
     E = it.explicit
     n_if = int(np.count_nonzero(E.stack.rows < E.n_gamma)) if E is not None else 0
     summary["interface_dofs_per_rank"] = comm.allgather(n_if if md.coupled else 0)
-    if md.preload is not None:
+    if md.preload is not None and sim.mesh.surface_contacts:
+        pre = md.preload
+        summary["preload"] = {
+            "weight_N": pre.weight,
+            "contact_forces_N": {
+                c.name: float(f)
+                for c, f in zip(sim.mesh.surface_contacts, pre.wheel_force, strict=True)
+            },
+            "max_penetration_m": pre.penetration,
+        }
+    elif md.preload is not None:
         pre = md.preload
         summary["preload"] = {
             "trolley_weight_N": pre.weight,

@@ -14,7 +14,7 @@ from crane_fem.contact import ContactSet
 from crane_fem.loading.body import AffineLoad
 from crane_fem.mesh import BarMesh, Segment, create_bar_mesh
 from crane_fem.model import StructuralModel, assemble_bar_operators
-from crane_fem.scenario import BarModel, Scenario
+from crane_fem.scenario import BarModel, Contact, Scenario
 
 __all__ = ["Body", "Problem", "create_problem"]
 
@@ -62,7 +62,7 @@ def create_problem(comm: MPI.Comm, sc: Scenario) -> Problem:
     """Build the bar problem of a validated scenario (collective over ``comm``)."""
     mdl = sc.model
     assert isinstance(mdl, BarModel), "the single-scheme path handles bars only"
-    contacts = {c.type: c for c in sc.contact}
+    contacts = {c.type: c for c in sc.contact if isinstance(c, Contact)}
     x0 = contacts["wall"].gap if "wall" in contacts else 0.0
     segments = [Segment(x0, mdl.length, mdl.elements, mdl.area)]
     if mdl.second_bar is not None:
@@ -119,6 +119,7 @@ def create_problem(comm: MPI.Comm, sc: Scenario) -> Problem:
                 coeffs.append(coeff)
 
     for c in sc.contact:
+        assert isinstance(c, Contact)  # a bar's contacts: wall and bars
         if c.type == "wall":
             add_point(c.gap, [(int(bar.first_node[0]), 1.0)], c.label)
         else:

@@ -420,6 +420,27 @@ class SlidingContacts:
             out.append(d)
         return np.concatenate(out) if out else np.zeros((0, 3))
 
+    def slip(self, u: FloatArray) -> FloatArray:
+        """Each point's slip over its surface (p_total, 3), m: the tangential part of
+        u_p − Σ ξ_i u_i, its displacement less the surface's where it now touches, on its
+        current pairing (zeros where unpaired) — the distance it has slid, whichever
+        triangle it is on (collective: ``u`` the explicit side's owned DOFs)."""
+        x = self._current(u)
+        U = x - self.X
+        out = []
+        for f, pairing, sp, ss in zip(
+            self.families, self.pairings, self._slot_p, self._slot_s, strict=True
+        ):
+            d = np.zeros((f.p, 3))
+            on = pairing.paired
+            if np.any(on):
+                tri = f.surface.triangles[pairing.triangle[on]]
+                rel = U[sp][on] - np.einsum("pk,pkj->pj", pairing.xi[on], U[ss][tri])
+                n = pairing.normal[on]
+                d[on] = rel - np.einsum("pj,pj->p", rel, n)[:, None] * n
+            out.append(d)
+        return np.concatenate(out) if out else np.zeros((0, 3))
+
     def drift(self, x: FloatArray) -> float:
         """The largest tangential drift of a point over its triangle since its pairing (m)
         at the current coordinates ``x`` of :attr:`ids`; +inf when a point that acts on a

@@ -32,6 +32,7 @@ __all__ = [
     "Surface",
     "canonical",
     "facing_surface",
+    "group_surface",
     "owned_terms",
     "pair_points",
     "surface_rows",
@@ -317,3 +318,57 @@ def canonical(surface: Surface) -> Surface:
     c = surface.xyz[tri].mean(axis=1)
     order = np.lexsort((c[:, 2], c[:, 1], c[:, 0]))
     return Surface(surface.xyz, tri[order], surface.vertex_ids)
+
+
+def group_surface(tagged: Any, name: str) -> Surface:
+    """The triangles of the parent mesh's facet group ``name``, each oriented out of the one
+    cell it bounds, as one :class:`Surface` of global parent vertex ids, the same on every
+    rank (collective: each rank's owned facets, gathered).
+
+    Raises:
+        ScenarioError: a facet of the group lies between two cells (inside a body, where
+            nothing can touch it), on every rank.
+    """
+    import dolfinx.mesh
+
+    from crane_fem.errors import ScenarioError
+
+    msh = tagged.mesh
+    tdim = msh.topology.dim
+    for d0, d1 in ((tdim - 1, tdim), (tdim - 1, 0), (tdim, 0), (0, tdim)):
+        msh.topology.create_connectivity(d0, d1)
+    tags = tagged.facet_tags
+    facets = tags.indices[tags.values == tagged.facet_groups[name]]
+    facets = facets[facets < msh.topology.index_map(tdim - 1).size_local]
+    f2v = msh.topology.connectivity(tdim - 1, 0)
+    f2c = msh.topology.connectivity(tdim - 1, tdim)
+    c2v = msh.topology.connectivity(tdim, 0)
+    n_v = msh.topology.index_map(0).size_local + msh.topology.index_map(0).num_ghosts
+    v2g = dolfinx.mesh.entities_to_geometry(msh, 0, np.arange(n_v, dtype=np.int32)).ravel()
+    geo = msh.geometry.x
+    verts = np.array([f2v.links(f) for f in facets], dtype=np.int32).reshape(-1, 3)
+    n_cells = np.array([f2c.links(f).size for f in facets], dtype=np.int64)
+    inner = msh.comm.allreduce(int(np.count_nonzero(n_cells != 1)), op=MPI.SUM)
+    if inner:
+        raise ScenarioError(
+            f"surface group {name!r}: {inner} of its facets lie between two cells, inside a "
+            "body; a contact surface is a body's boundary (mesh the two bodies apart, with "
+            "their own nodes on the contact: no fragment/coherence between them)"
+        )
+    cells = np.array([f2c.links(f)[0] for f in facets], dtype=np.int64)
+    xyz = geo[v2g[verts]]  # (m, 3, 3)
+    centre = np.array([geo[v2g[c2v.links(c)]].mean(axis=0) for c in cells]).reshape(-1, 3)
+    n = np.cross(xyz[:, 1] - xyz[:, 0], xyz[:, 2] - xyz[:, 0])
+    flip = np.einsum("ij,ij->i", n, xyz[:, 0] - centre) < 0.0  # outward: away from its cell
+    verts[flip] = verts[flip][:, [0, 2, 1]]
+    xyz[flip] = xyz[flip][:, [0, 2, 1]]
+    ids = np.asarray(
+        msh.topology.index_map(0).local_to_global(verts.ravel()), dtype=np.int64
+    ).reshape(-1, 3)
+    got = msh.comm.allgather((ids, xyz.reshape(-1, 3, 3)))
+    all_tris = np.concatenate([t for t, _ in got])
+    all_xyz = np.concatenate([c for _, c in got])
+    uniq, inverse = np.unique(all_tris.ravel(), return_inverse=True)
+    coords = np.zeros((uniq.size, 3))
+    coords[inverse] = all_xyz.reshape(-1, 3)
+    return canonical(Surface(coords, inverse.reshape(-1, 3).astype(np.int64), uniq))

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
+from mpi4py import MPI
 
 __all__ = ["TaggedMesh"]
 
@@ -42,3 +43,18 @@ class TaggedMesh:
             return facets.astype(np.int32)
         self.mesh.topology.create_connectivity(tdim - 1, 0)
         return dolfinx.mesh.compute_incident_entities(self.mesh.topology, facets, tdim - 1, 0)
+
+    def vertex_coordinates(self, ids: npt.NDArray[np.int64]) -> npt.NDArray[np.float64]:
+        """Coordinates (n, 3) of the vertices of global ids ``ids``, the same on every rank
+        (collective: each from the rank owning it)."""
+        msh = self.mesh
+        msh.topology.create_connectivity(0, msh.topology.dim)
+        imap = msh.topology.index_map(0)
+        own = np.arange(imap.size_local, dtype=np.int32)
+        gids = np.asarray(imap.local_to_global(own), dtype=np.int64)
+        sel = np.isin(gids, ids)
+        rows = dolfinx.mesh.entities_to_geometry(msh, 0, own[sel]).ravel()
+        X = np.zeros((ids.size, 3))
+        X[np.searchsorted(ids, gids[sel])] = msh.geometry.x[rows]
+        out: npt.NDArray[np.float64] = msh.comm.allreduce(X, op=MPI.SUM)
+        return out

@@ -12,6 +12,7 @@ from typing import Any
 from crane_fem.coupling import MacroRecord
 from crane_fem.monitors.bridge_stress import BridgeStress
 from crane_fem.monitors.contact_peaks import ContactPeaksMonitor
+from crane_fem.monitors.contact_slip import ContactSlipMonitor, create_contact_slip
 from crane_fem.monitors.energy_growth import EnergyGrowth
 from crane_fem.monitors.measured_points import MeasuredPoints, create_measured_points
 from crane_fem.monitors.protocol import Monitor
@@ -33,7 +34,7 @@ class Monitors:
     stress: BridgeStress | None = None
     supports: SupportsMonitor | None = None
     points: MeasuredPoints | None = None
-    slip: WheelSlipMonitor | None = None
+    slip: WheelSlipMonitor | ContactSlipMonitor | None = None
 
     def _present(self, names: tuple[str, ...]) -> list[tuple[str, Monitor]]:
         return [(k, m) for k in names if (m := getattr(self, k)) is not None]
@@ -103,7 +104,8 @@ class Monitors:
 
 def create_monitors(sim: Simulation, out: Path) -> Monitors:
     """The monitors the scene calls for (collective): the divergence guard and the contact
-    peaks always; for a crane the bridge stress, the support reactions and the wheels' slip;
+    peaks always; for a crane the bridge stress, the support reactions and the wheels' slip,
+    for a gmsh model its contacts' slip;
     the measured points where the scenario or the crane names some (spectra to ``out``)."""
     crane = sim.mesh.crane is not None
     points = create_measured_points(sim, out)
@@ -113,5 +115,5 @@ def create_monitors(sim: Simulation, out: Path) -> Monitors:
         BridgeStress(sim) if crane else None,
         create_supports(sim) if crane else None,
         points,
-        create_wheel_slip(sim),
+        create_wheel_slip(sim) or create_contact_slip(sim),
     )

@@ -27,7 +27,7 @@ from crane_fem.geometry.crane import CraneMesh
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.pipeline.models import ModelStage
 from crane_fem.preload import Preload
-from crane_fem.scenario import BlockModel, CraneModel, Scenario, Wheel
+from crane_fem.scenario import BlockModel, CraneModel, GmshModel, Scenario, Wheel
 from crane_fem.subdomains import Subdomain, global_ids
 
 __all__ = ["FLANGE_GROUPS", "ConstraintStage", "build_constraints"]
@@ -306,6 +306,73 @@ def _sliding_contacts(
     return sliding
 
 
+def _gmsh_contacts(
+    sub: Subdomain, mesh: MeshStage, preload: Preload | None, interface: IntArray
+) -> SlidingContacts:
+    """A gmsh model's ``[[contact]] type = "surface"``: each points group on its surface's
+    triangles, re-paired as they slide (collective). Each point's offset c_p makes its gap
+    at t = 0 its distance at X moved by the preload's displacement, exactly 0 where the
+    preload closed it (its penalty's interpenetration F/k_p removed) and never negative (a
+    surface meshed a little into its neighbour touches it).
+
+    Raises:
+        ScenarioError: a contact's vertices are not all in the explicit subdomain, or, with
+            friction, touch the interface.
+    """
+    families = []
+    names = [c.name for c in mesh.surface_contacts]
+    disp = preload.displacement if preload is not None else None
+    start = 0
+    for k, c in enumerate(mesh.surface_contacts):
+        ids = np.unique(np.concatenate([c.points, c.surface.vertex_ids]))
+        blocks, _ = sub.owned_dofs_of(ids)
+        have = mesh.comm.allreduce(int(blocks.size), op=MPI.SUM)
+        if have != ids.size:
+            raise ScenarioError(
+                f"contact {c.name!r}: its points and surface must belong to an explicit "
+                "(cd-lagrange) subdomain"
+            )
+        if c.friction > 0.0 and np.any(np.isin(ids, interface)):
+            raise ScenarioError(
+                f"contact {c.name!r}: a frictional contact may not touch the interface "
+                "between the explicit and implicit subdomains (make the bodies around it "
+                "explicit)"
+            )
+        pr = c.pairing
+        s0 = pr.gap.copy()
+        closed = s0 <= 0.0
+        if disp is not None:
+            tri = c.surface.vertex_ids[c.surface.triangles[pr.triangle]]
+            rel = disp[c.points] - np.einsum("pk,pkj->pj", pr.xi, disp[tri])
+            s0 = s0 + np.einsum("pj,pj->p", pr.normal, rel)
+            assert preload is not None
+            closed = preload.closed[start : start + c.points.size]
+        offset = np.where(closed, -s0, np.maximum(0.0, -s0))
+        start += c.points.size
+        families.append(
+            Family(
+                c.points,
+                c.surface,
+                np.full(c.points.size, k, dtype=np.int64),
+                offset,
+                n_tangents=2 if c.friction > 0.0 else 0,
+                mu=c.friction,
+            )
+        )
+    x = mesh.tagged.mesh.geometry.x
+    size = float(np.max(np.ptp(x, axis=0), initial=0.0)) if x.size else 0.0
+    size = mesh.comm.allreduce(size, op=MPI.MAX)
+    # A point held closed drifts by round-off (ε |u|): 1e-12 of the model absorbs it.
+    return SlidingContacts(
+        sub,
+        families,
+        names,
+        1e-12 * size,
+        point_name="contact point",
+        surface_key="[[contact]] points/surface",
+    )
+
+
 def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> ConstraintStage:
     """Interface rows and contacts (collective)."""
     comm = mesh.comm
@@ -333,7 +400,10 @@ def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> Cons
     elif sc.contact:
         if E_sub is None:
             raise ScenarioError("contact: needs an explicit (cd-lagrange) subdomain")
-        if isinstance(sc.model, BlockModel):
+        if isinstance(sc.model, GmshModel):
+            sliding = _gmsh_contacts(E_sub, mesh, models.preload, vertices)
+            contacts = sliding.rows()
+        elif isinstance(sc.model, BlockModel):
             contacts = _plane_contacts(sc, mesh, E_sub)
         else:
             contacts = _wall_contacts(sc, mesh, E_sub)

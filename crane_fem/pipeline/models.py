@@ -7,11 +7,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from mpi4py import MPI
 
 from crane_fem.errors import ScenarioError
 from crane_fem.pipeline.mesh import MeshStage
-from crane_fem.preload import Preload, static_preload
-from crane_fem.scenario import BarModel, BlockModel, Scenario
+from crane_fem.preload import BondedPoints, Preload, bonded_preload, static_preload
+from crane_fem.scenario import BarModel, BlockModel, GmshModel, Scenario
 from crane_fem.stability import critical_time_step, max_frequency
 from crane_fem.subdomains import Subdomain, create_subdomain
 
@@ -68,7 +69,9 @@ def _specs(sc: Scenario, mesh: MeshStage) -> tuple[str, int, list[tuple[str, str
     if cpl is not None and cpl.method == "monolithic":
         groups = list(mesh.tagged.cell_groups)
         return "monolithic", 1, [("all", cpl.monolithic_scheme, groups)]
-    if isinstance(sc.model, BlockModel):  # one explicit body: the fully explicit path
+    if isinstance(sc.model, BlockModel) or (
+        isinstance(sc.model, GmshModel) and not sc.subdomain
+    ):  # one explicit body: the fully explicit path
         return "monolithic", 1, [("all", "cd-lagrange", list(mesh.tagged.cell_groups))]
     specs: list[tuple[str, str, list[str]]] = [
         (s.name, str(s.scheme), list(s.groups)) for s in sc.subdomain
@@ -110,6 +113,54 @@ def sample_steps(sc: Scenario, dt: float, unit: int) -> int:
     return unit * max(1, round(delta / (unit * dt)))
 
 
+def bonded_points(mesh: MeshStage) -> BondedPoints:
+    """The t = 0 pairing of a gmsh model's node-to-surface contacts, every contact's points
+    stacked in order (group: the contact's index)."""
+    ids, weights, normal, gap, group = [], [], [], [], []
+    for k, c in enumerate(mesh.surface_contacts):
+        pr = c.pairing
+        tri = c.surface.vertex_ids[c.surface.triangles[pr.triangle]]
+        ids.append(np.column_stack([c.points, tri]))
+        weights.append(np.column_stack([np.ones(c.points.size), -pr.xi]))
+        normal.append(pr.normal)
+        gap.append(pr.gap)
+        group.append(np.full(c.points.size, k, dtype=np.int64))
+    if not ids:
+        z = np.zeros((0, 4))
+        return BondedPoints(
+            z.astype(np.int64), z, np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.int64)
+        )
+    return BondedPoints(
+        np.concatenate(ids).astype(np.int64),
+        np.concatenate(weights),
+        np.concatenate(normal),
+        np.concatenate(gap),
+        np.concatenate(group),
+    )
+
+
+def _gmsh_preload(sc: Scenario, mesh: MeshStage) -> Preload:
+    """A gmsh model's self-weight state, its closed contacts bonded (collective)."""
+    assert mesh.density is not None
+    x = mesh.tagged.mesh.geometry.x
+    lo, hi = x.min(axis=0, initial=np.inf), x.max(axis=0, initial=-np.inf)
+    lo = np.array([mesh.comm.allreduce(float(v), op=MPI.MIN) for v in lo])
+    hi = np.array([mesh.comm.allreduce(float(v), op=MPI.MAX) for v in hi])
+    return bonded_preload(
+        mesh.tagged,
+        bonded_points(mesh),
+        len(mesh.surface_contacts),
+        mesh.fixed_vertices,
+        sc.material.E,
+        sc.material.nu,
+        mesh.density,
+        np.asarray(sc.loading.gravity, dtype=np.float64),
+        # Touching at t = 0: within round-off of the model's size (a mesh's nodes on a
+        # shared plane sit there to ~1e-12 of it).
+        1e-9 * float(np.linalg.norm(hi - lo)),
+    )
+
+
 def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
     """Preload, subdomains and steps (collective)."""
     mdl, mat = sc.model, sc.material
@@ -131,6 +182,8 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             np.asarray(sc.loading.gravity, dtype=np.float64),
             ["trolley_frame"] + [f"wheel_{k}" for k in range(1, 5)],
         )
+    if isinstance(mdl, GmshModel) and np.any(np.asarray(sc.loading.gravity) != 0.0):
+        preload = _gmsh_preload(sc, mesh)
     explicit_specs = [s for s in specs if s[1] == "cd-lagrange"]
     implicit_specs = [s for s in specs if s[1] in ("newmark", "newmark-reduced")]
     explicit = implicit = None

@@ -16,7 +16,7 @@ from crane_fem.pipeline.integrators import IntegratorStage, build_integrators
 from crane_fem.pipeline.mesh import MeshStage, build_mesh
 from crane_fem.pipeline.models import ModelStage, build_models
 from crane_fem.reduction import check_modes, interior_dofs
-from crane_fem.scenario import BlockModel, BoxBeamModel, CraneModel, Scenario
+from crane_fem.scenario import BlockModel, BoxBeamModel, CraneModel, GmshModel, Scenario
 
 __all__ = ["Simulation", "SimulationCheck", "check_simulation", "create_simulation"]
 
@@ -36,7 +36,8 @@ class Simulation:
 
     def probe_vertices(self) -> npt.NDArray[np.int64]:
         """Global ids of the probe: the bar's right end, the beam's tip face, the crane's
-        wheel 1 contact face (wheel side), or the block's top face."""
+        wheel 1 contact face (wheel side), the block's top face, or a gmsh model's first
+        contact's points (none without a contact)."""
         mdl = self.scenario.model
         if isinstance(mdl, CraneModel):
             name = "wheel_patch_1"
@@ -44,6 +45,10 @@ class Simulation:
             name = groups.BEAM_TIP
         elif isinstance(mdl, BlockModel):
             name = groups.BLOCK_TOP
+        elif isinstance(mdl, GmshModel):  # the first contact's points, if any
+            if not self.mesh.surface_contacts:
+                return np.zeros(0, dtype=np.int64)
+            return self.mesh.surface_contacts[0].points
         else:
             name = groups.BAR_RIGHT_END
         tagged = self.mesh.tagged

@@ -22,6 +22,7 @@ from crane_fem.scenario.model import (
     BlockModel,
     BoxBeamModel,
     CraneModel,
+    GmshModel,
     SecondBar,
 )
 from crane_fem.scenario.overrides import apply_overrides, apply_unsets
@@ -29,6 +30,7 @@ from crane_fem.scenario.root import Scenario
 from crane_fem.scenario.sections import (
     Contact,
     DampingRatio,
+    GroupMass,
     Initial,
     Integrator,
     Material,
@@ -36,6 +38,8 @@ from crane_fem.scenario.sections import (
     Output,
     Pulse,
     Spectra,
+    Support,
+    SurfaceContact,
     Time,
     Wheel,
 )
@@ -53,7 +57,9 @@ __all__ = [
     "Coupling",
     "CraneModel",
     "DampingRatio",
+    "GmshModel",
     "GroundMotion",
+    "GroupMass",
     "Initial",
     "Integrator",
     "Loading",
@@ -66,6 +72,8 @@ __all__ = [
     "SecondBar",
     "Spectra",
     "SubdomainSpec",
+    "Support",
+    "SurfaceContact",
     "Time",
     "TipTraction",
     "Wheel",

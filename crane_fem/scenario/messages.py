@@ -8,6 +8,16 @@ from pydantic import BaseModel, ValidationError
 
 from crane_fem.scenario.model import MODEL_KINDS
 from crane_fem.scenario.root import Scenario
+from crane_fem.scenario.sections import Contact, SurfaceContact
+
+#: The tables a ``[[contact]]`` entry's ``type`` selects (pydantic puts the type in the
+#: error's location).
+CONTACT_KINDS: dict[str, type[BaseModel]] = {
+    "wall": Contact,
+    "bars": Contact,
+    "plane": Contact,
+    "surface": SurfaceContact,
+}
 
 __all__ = ["format_error"]
 
@@ -15,11 +25,14 @@ __all__ = ["format_error"]
 def _allowed_keys(section: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
     """Keys allowed at the parent of ``loc`` (for 'unknown key' messages)."""
     model: Any = section
-    for part in loc[:-1]:
+    for i, part in enumerate(loc[:-1]):
         if isinstance(part, int):
             continue
-        if part in MODEL_KINDS:
+        if part in MODEL_KINDS and i > 0 and loc[i - 1] == "model":
             model = MODEL_KINDS[part]
+            continue
+        if part in CONTACT_KINDS and i > 1 and loc[i - 2] == "contact":
+            model = CONTACT_KINDS[part]
             continue
         field = model.model_fields.get(part)
         if field is None:
@@ -105,7 +118,10 @@ def _path(loc: tuple[Any, ...]) -> str:
     pydantic inserts dropped (the discriminator after "model", union branches)."""
     raw = tuple(p for p in loc if not _is_tag(p))
     key = tuple(
-        p for i, p in enumerate(raw) if not (i > 0 and raw[i - 1] == "model" and p in MODEL_KINDS)
+        p
+        for i, p in enumerate(raw)
+        if not (i > 0 and raw[i - 1] == "model" and p in MODEL_KINDS)
+        and not (i > 1 and raw[i - 2] == "contact" and p in CONTACT_KINDS)
     )
     return ".".join(str(p) if not isinstance(p, int) else f"[{p}]" for p in key).replace(".[", "[")
 

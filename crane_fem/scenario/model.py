@@ -1,7 +1,10 @@
-"""The [model] section: one table per model kind (bar, crane, box_beam, block), by ``kind``."""
+"""The [model] section: one table per model kind (bar, crane, box_beam, block, gmsh), by
+``kind``."""
 
 from __future__ import annotations
 
+import functools
+from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import Field, model_validator
@@ -15,6 +18,7 @@ __all__ = [
     "BlockModel",
     "BoxBeamModel",
     "CraneModel",
+    "GmshModel",
     "SecondBar",
 ]
 
@@ -162,11 +166,53 @@ class BlockModel(Section):
         return ["block"]
 
 
+@functools.lru_cache(maxsize=8)
+def _physical_names(path: str, mtime: float) -> Any:
+    from crane_fem.geometry.gmsh_file import read_physical_names
+
+    return read_physical_names(path)
+
+
+class GmshModel(Section):
+    """A user's own structure: the gmsh ``.msh`` file ``mesh`` (P1 tetrahedra) whose named
+    volume groups are the bodies (``[[subdomain]] groups``, ``[[mass]] group``) and whose
+    named surface groups are the supports (``[[support]] group``) and the contact points and
+    surfaces (``[[contact]] type = "surface"``). Without ``[[subdomain]]`` entries the whole
+    model is one explicit CD-Lagrange body."""
+
+    kind: Literal["gmsh"]
+    mesh: str
+
+    @model_validator(mode="after")
+    def _readable(self) -> GmshModel:
+        from crane_fem.errors import ScenarioError
+
+        try:
+            self.names()
+        except ScenarioError as exc:
+            raise ValueError(str(exc).removeprefix("model.mesh: ")) from None
+        return self
+
+    def names(self) -> Any:
+        """The file's named physical groups (crane_fem.geometry.gmsh_file.PhysicalNames)."""
+        path = Path(self.mesh)
+        return _physical_names(str(path), path.stat().st_mtime if path.is_file() else 0.0)
+
+    @property
+    def groups(self) -> list[str]:
+        return list(self.names().volumes)
+
+    @property
+    def surface_groups(self) -> list[str]:
+        return list(self.names().surfaces)
+
+
 MODEL_KINDS = {
     "bar": BarModel,
     "box_beam": BoxBeamModel,
     "crane": CraneModel,
     "block": BlockModel,
+    "gmsh": GmshModel,
 }
 
 #: The crane model's keys that describe its mesh (those of

@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Annotated
 
 from pydantic import Field, model_validator
@@ -24,15 +25,18 @@ from crane_fem.scenario.coupling import (
     SubdomainSpec,
 )
 from crane_fem.scenario.loading import Loading
-from crane_fem.scenario.model import BarModel, BlockModel, BoxBeamModel, CraneModel
+from crane_fem.scenario.model import BarModel, BlockModel, BoxBeamModel, CraneModel, GmshModel
 from crane_fem.scenario.sections import (
     Contact,
+    GroupMass,
     Initial,
     Integrator,
     Material,
     Monitor,
     Output,
     Spectra,
+    Support,
+    SurfaceContact,
     Time,
     Wheel,
 )
@@ -48,10 +52,14 @@ class Scenario(Section):
     """A whole scenario file."""
 
     name: str = "scenario"
-    model: Annotated[BarModel | BoxBeamModel | CraneModel | BlockModel, Field(discriminator="kind")]
+    model: Annotated[
+        BarModel | BoxBeamModel | CraneModel | BlockModel | GmshModel, Field(discriminator="kind")
+    ]
     material: Material
     initial: Initial = Initial()
-    contact: list[Contact] = []
+    contact: list[Annotated[Contact | SurfaceContact, Field(discriminator="type")]] = []
+    support: list[Support] = []
+    mass: list[GroupMass] = []
     time: Time
     integrator: Integrator = Integrator()
     loading: Loading = Loading()
@@ -68,13 +76,84 @@ class Scenario(Section):
         """Run through subdomains (coupled or monolithic reference) rather than the bar path
         (a block always: one CD-Lagrange subdomain built by the pipeline)."""
         return (
-            bool(self.subdomain) or self.coupling is not None or isinstance(self.model, BlockModel)
+            bool(self.subdomain)
+            or self.coupling is not None
+            or isinstance(self.model, BlockModel | GmshModel)
         )
+
+    @model_validator(mode="after")
+    def _gmsh_groups(self) -> Scenario:
+        mdl = self.model
+        if not isinstance(mdl, GmshModel):
+            for key, given in (("support", self.support), ("mass", self.mass)):
+                if given:
+                    raise ValueError(
+                        f"{key}: [[{key}]] applies to model.kind 'gmsh' (named groups of your "
+                        f"own mesh), not {mdl.kind!r}"
+                    )
+            for i, c in enumerate(self.contact):
+                if c.type == "surface":
+                    raise ValueError(
+                        f"contact[{i}].type: 'surface' applies to model.kind 'gmsh' (the "
+                        f'crane\'s wheels take wheel.contact = "surface"), not {mdl.kind!r}'
+                    )
+            return self
+        volumes, surfaces = mdl.groups, mdl.surface_groups
+        where = f"(in {Path(mdl.mesh).name}: {', '.join(surfaces) or 'none'})"
+        for i, sup in enumerate(self.support):
+            if sup.group not in surfaces:
+                raise ValueError(
+                    f"support[{i}].group: {sup.group!r} is not a named surface group {where}"
+                )
+        for i, ms in enumerate(self.mass):
+            if ms.group not in volumes:
+                raise ValueError(
+                    f"mass[{i}].group: {ms.group!r} is not a named volume group (in "
+                    f"{Path(mdl.mesh).name}: {', '.join(volumes)})"
+                )
+        labels = []
+        for i, c in enumerate(self.contact):
+            if c.type != "surface":
+                raise ValueError(
+                    f"contact[{i}].type: model.kind 'gmsh' takes contacts of type 'surface' "
+                    f"(points on the triangles of another group), not {c.type!r}"
+                )
+            for key in ("points", "surface"):
+                if getattr(c, key) not in surfaces:
+                    raise ValueError(
+                        f"contact[{i}].{key}: {getattr(c, key)!r} is not a named surface group "
+                        f"{where}"
+                    )
+            if c.points == c.surface:
+                raise ValueError(
+                    f"contact[{i}]: points and surface are the same group {c.points!r}"
+                )
+            labels.append(c.label)
+        twice = sorted({n for n in labels if labels.count(n) > 1})
+        if twice:
+            raise ValueError(
+                f"contact: two contacts are named {twice[0]!r} (give each its own name)"
+            )
+        if self.initial.model_fields_set:
+            key = sorted(self.initial.model_fields_set)[0]
+            raise ValueError(
+                f"initial.{key}: model.kind 'gmsh' starts at rest (in its static preload "
+                "under gravity)"
+            )
+        if not self.subdomain and self.coupling is None:
+            if self.integrator.scheme != "cd-lagrange":
+                raise ValueError(
+                    f"integrator.scheme: model.kind 'gmsh' without [[subdomain]] runs one "
+                    f"explicit 'cd-lagrange' body, not {self.integrator.scheme!r}"
+                )
+        return self
 
     @model_validator(mode="after")
     def _contacts_and_block(self) -> Scenario:
         mdl = self.model
         block = isinstance(mdl, BlockModel)
+        if isinstance(mdl, GmshModel):
+            return self
         for i, c in enumerate(self.contact):
             if c.friction > 0.0 and c.type != "plane":
                 raise ValueError(

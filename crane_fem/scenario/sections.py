@@ -24,6 +24,7 @@ from crane_fem.scenario.base import (
 __all__ = [
     "Contact",
     "DampingRatio",
+    "GroupMass",
     "Initial",
     "Integrator",
     "Material",
@@ -31,6 +32,8 @@ __all__ = [
     "Output",
     "Pulse",
     "Spectra",
+    "Support",
+    "SurfaceContact",
     "Time",
     "Wheel",
 ]
@@ -126,6 +129,38 @@ class Contact(Section):
     @property
     def label(self) -> str:
         return self.name if self.name is not None else self.type
+
+
+class SurfaceContact(Section):
+    """Node-to-surface contact of a gmsh model (``model.kind = "gmsh"``), large sliding: the
+    vertices of the surface group ``points`` against the triangles of the surface group
+    ``surface`` of another body, re-paired as they slide (crane_fem.contact.sliding);
+    Coulomb ``friction`` μ ≥ 0; ``name`` (default the points group) names its outputs."""
+
+    type: Literal["surface"]
+    points: str
+    surface: str
+    friction: NonNegativeFloat = 0.0
+    name: str | None = None
+
+    @property
+    def label(self) -> str:
+        return self.name if self.name is not None else self.points
+
+
+class Support(Section):
+    """A surface group of a gmsh model clamped to the ground: fixed in the relative
+    formulation, so it moves with the ground motion."""
+
+    group: str
+
+
+class GroupMass(Section):
+    """Equipment carried rigidly by a volume group of a gmsh model: ``mass`` (kg) spread
+    uniformly over the group's volume (added to its density)."""
+
+    group: str
+    mass: PositiveFloat
 
 
 class Wheel(Section):

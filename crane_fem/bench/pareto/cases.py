@@ -10,7 +10,7 @@ from typing import Any
 from crane_fem.bench.common import demo
 from crane_fem.bench.pareto.points import Spec
 from crane_fem.exact import WallImpact
-from crane_fem.scenario import BarModel, load_scenario
+from crane_fem.scenario import BarModel, Contact, load_scenario
 
 __all__ = ["COUPLINGS", "CRANE_RATIOS", "NOMINAL", "REFINING_FULL", "bar_specs", "crane_specs"]
 
@@ -60,7 +60,9 @@ def bar_specs() -> tuple[list[Spec], WallImpact, float]:
     mdl = split.model
     assert isinstance(mdl, BarModel)
     c = math.sqrt(split.material.E / split.material.rho)
-    gap = split.contact[0].gap
+    wall = split.contact[0]
+    assert isinstance(wall, Contact)
+    gap = wall.gap
     exact = WallImpact(mdl.length, c, split.initial.bar_velocity, gap)
     single = {
         "model.length": mdl.length,

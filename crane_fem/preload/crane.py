@@ -30,7 +30,7 @@ from crane_fem.errors import CraneFemError
 from crane_fem.geometry.tagged import TaggedMesh
 from crane_fem.model import assemble_structure
 
-__all__ = ["Preload", "static_preload"]
+__all__ = ["Preload", "static_preload", "vertex_blocks"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -64,7 +64,7 @@ class Preload:
         return abs(float(self.wheel_force.sum()) - self.weight) / self.weight
 
 
-def _vertex_blocks(V: dolfinx.fem.FunctionSpace) -> tuple[IntArray, IntArray]:
+def vertex_blocks(V: dolfinx.fem.FunctionSpace) -> tuple[IntArray, IntArray]:
     """(global vertex id, local DOF block) of every local DOF block (owned, then ghosts) of a
     P1 space on a mesh."""
     msh = V.mesh
@@ -109,7 +109,7 @@ def static_preload(
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (bs,)))
     rho = dolfinx.fem.Function(dolfinx.fem.functionspace(msh, ("DG", 0)))
     rho.x.array[rho.function_space.dofmap.list[:, 0]] = cell_density
-    gv, blocks = _vertex_blocks(V)
+    gv, blocks = vertex_blocks(V)
     imap = V.dofmap.index_map
     n_own = imap.size_local
     clamped = blocks[np.isin(gv, fixed_vertices)].astype(np.int32)

@@ -1,0 +1,79 @@
+"""The slip of a gmsh model's node-to-surface contacts as a macro-step monitor: each
+contact's mean slip vector in the history, its largest point slip and its slip at the end in
+the summary's ``contact_groups``."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from crane_fem.contact.sliding import SlidingContacts
+from crane_fem.coupling import MacroRecord
+from crane_fem.pipeline import Simulation
+from crane_fem.scenario import GmshModel
+
+__all__ = ["ContactSlipMonitor", "create_contact_slip"]
+
+
+class ContactSlipMonitor:
+    """:meth:`SlidingContacts.slip` at every sampling instant (collective)."""
+
+    def __init__(self, sliding: SlidingContacts) -> None:
+        self.sliding = sliding
+        self.names = list(sliding.names)
+        groups = np.concatenate([f.group for f in sliding.families])
+        self.group = groups.astype(np.int64)
+        n = len(self.names)
+        #: Per contact: its points' mean slip vector now (m) and the largest point slip (m).
+        self.mean = np.zeros((n, 3))
+        self.peak = np.zeros(n)
+
+    @property
+    def columns(self) -> list[str]:
+        return [f"{name}_slip_{c}" for name in self.names for c in "xyz"]
+
+    def history_row(self) -> dict[str, float]:
+        return dict(zip(self.columns, self.mean.ravel().tolist(), strict=True))
+
+    def update(self, rec: MacroRecord, last: bool) -> None:
+        assert rec.explicit_u is not None
+        slip = self.sliding.slip(rec.explicit_u)
+        n = len(self.names)
+        count = np.bincount(self.group, minlength=n).astype(np.float64)
+        for c in range(3):
+            self.mean[:, c] = np.bincount(self.group, weights=slip[:, c], minlength=n) / np.maximum(
+                count, 1.0
+            )
+        size = np.linalg.norm(slip, axis=1)
+        peak = np.zeros(n)
+        np.maximum.at(peak, self.group, size)
+        self.peak = np.maximum(self.peak, peak)
+
+    def summarize(self, summary: dict[str, Any]) -> None:
+        """Each contact's ``max_slip_m`` (its largest point slip at a sampling instant) and
+        ``final_slip_m`` (its points' mean slip vector at the end) into its row of
+        ``contact_groups``."""
+        table = summary.setdefault("contact_groups", {})
+        for k, name in enumerate(self.names):
+            row = table.setdefault(name, {})
+            row["max_slip_m"] = float(self.peak[k])
+            row["final_slip_m"] = self.mean[k].tolist()
+
+    def state_dict(self) -> dict[str, Any]:
+        return {"mean": self.mean.copy(), "peak": self.peak.copy()}
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.mean = np.asarray(state["mean"], dtype=np.float64).reshape(-1, 3)
+        self.peak = np.asarray(state["peak"], dtype=np.float64)
+
+    def destroy(self) -> None:
+        pass
+
+
+def create_contact_slip(sim: Simulation) -> ContactSlipMonitor | None:
+    """The slip of a gmsh model's surface contacts (None for other models or none)."""
+    sliding = sim.constraints.sliding
+    if not isinstance(sim.scenario.model, GmshModel) or sliding is None:
+        return None
+    return ContactSlipMonitor(sliding)

@@ -1,0 +1,178 @@
+"""A user's own gmsh structure (``model.kind = "gmsh"``): a test writes a two-body model in
+its own gmsh code — a slab clamped at its bottom, a block resting on it through a frictional
+node-to-surface contact — and runs it through the CLI (serially, and on two ranks under the
+suite's mpiexec run), against the exact rigid-block solutions of Coulomb friction.
+
+In the relative formulation the clamped slab stands still and the block feels the body force
+−ρ a_g: with a constant ground acceleration A > μg it slides back with relative acceleration
+A − μg, slip (A − μg) T²/2 after T; below μg it sticks. After a pulse of A over τ (v0 = Aτ)
+it slides until v0/(μg) exactly, over v0²(1 − μg/A)/(2μg) (the pulse's own slide included:
+(A − μg)τ²/2 while it lasts, then the deceleration μg from (A − μg)τ).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from mpi4py import MPI
+
+from crane_fem.cli import main
+
+COMM = MPI.COMM_WORLD
+MU, G = 0.3, 9.81
+
+
+def write_block_on_slab(
+    path: Path,
+    slab: tuple[float, float, float] = (0.32, 0.12, 0.03),
+    block: tuple[float, float, float] = (0.06, 0.06, 0.06),
+    corner: tuple[float, float] = (0.02, 0.03),
+    h_slab: float = 0.03,
+    h_block: float = 0.03,
+) -> None:
+    """The slab [0, Lx]×[0, Ly]×[−t, 0] and the block on it, meshed apart (their own nodes
+    on z = 0: not fragmented), on rank 0; groups ``slab``, ``block`` (volumes), ``slab_bottom``,
+    ``slab_top``, ``block_bottom`` (surfaces)."""
+    if COMM.rank == 0:
+        import gmsh
+
+        gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.NumThreads", 1)
+        gmsh.model.add("block_on_slab")
+        occ = gmsh.model.occ
+        s = occ.addBox(0.0, 0.0, -slab[2], *slab)
+        b = occ.addBox(corner[0], corner[1], 0.0, *block)
+        occ.synchronize()
+
+        def face(vol: int, z: float) -> int:
+            for dim, tag in gmsh.model.getBoundary([(3, vol)], oriented=False):
+                box = gmsh.model.getBoundingBox(dim, tag)
+                if abs(box[2] - z) < 1e-6 and abs(box[5] - z) < 1e-6:
+                    return tag
+            raise AssertionError(f"no face at z = {z}")
+
+        gmsh.model.addPhysicalGroup(3, [s], name="slab")
+        gmsh.model.addPhysicalGroup(3, [b], name="block")
+        gmsh.model.addPhysicalGroup(2, [face(s, -slab[2])], name="slab_bottom")
+        gmsh.model.addPhysicalGroup(2, [face(s, 0.0)], name="slab_top")
+        gmsh.model.addPhysicalGroup(2, [face(b, 0.0)], name="block_bottom")
+        for vol, h in ((s, h_slab), (b, h_block)):
+            pts = gmsh.model.getBoundary([(3, vol)], recursive=True)
+            gmsh.model.mesh.setSize(pts, h)
+        gmsh.model.mesh.generate(3)
+        gmsh.write(str(path))
+        gmsh.finalize()
+    COMM.barrier()
+
+
+def write_record(path: Path, rows: list[tuple[float, float]]) -> None:
+    if COMM.rank == 0:
+        path.write_text("".join(f"{t!r},{a!r}\n" for t, a in rows), encoding="utf-8")
+    COMM.barrier()
+
+
+def scenario(mesh: Path, record: Path, end: float, sample: float) -> str:
+    return f"""
+name = "block_on_slab"
+[model]
+kind = "gmsh"
+mesh = "{mesh}"
+[material]
+E = 1e8
+rho = 1000.0
+nu = 0.3
+[[support]]
+group = "slab_bottom"
+[[contact]]
+type = "surface"
+points = "block_bottom"
+surface = "slab_top"
+friction = {MU}
+name = "feet"
+[loading]
+gravity = [0.0, 0.0, -{G}]
+[[loading.ground_motion]]
+record = "{record}"
+direction = [1.0, 0.0, 0.0]
+[time]
+end = {end}
+dt_factor = 0.9
+[output]
+xdmf = false
+sample_interval = {sample}
+"""
+
+
+def run_cli(tmp: Path, toml: str, name: str) -> tuple[dict, dict[str, np.ndarray]]:
+    path = tmp / f"{name}.toml"
+    if COMM.rank == 0:
+        path.write_text(toml, encoding="utf-8")
+    COMM.barrier()
+    out = tmp / name
+    assert main(["run", str(path), "--output", str(out), "--no-progress"]) == 0
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    data = np.genfromtxt(out / "history.csv", delimiter=",", names=True)
+    return summary, {k: data[k] for k in data.dtype.names}
+
+
+@pytest.mark.parametrize("ratio", [2.0, 0.5], ids=["slides", "sticks"])
+def test_block_on_a_shaken_slab_slides_at_A_minus_mu_g(shared_tmp: Path, ratio: float) -> None:
+    """A = 2μg: slip (A − μg)T²/2 within 3 %; A = μg/2: slip below 1 % of (A/2)T²."""
+    mesh = shared_tmp / "block_on_slab.msh"
+    write_block_on_slab(mesh)
+    A, T = ratio * MU * G, 0.08
+    write_record(shared_tmp / "step.csv", [(0.0, A), (1.0, A)])
+    summary, hist = run_cli(shared_tmp, scenario(mesh, shared_tmp / "step.csv", T, 1e-3), "run")
+    assert summary["status"] == "completed"
+    slip = -hist["feet_slip_x"][-1]  # the block lags behind the ground: −x relative to it
+    T = hist["t"][-1]  # the end of the last step (time.end rounded up to a whole step)
+    print(f"slip {slip:.6e} m at T = {T:.6g} s; (A - mu g) T^2/2 = {(A - MU * G) * T**2 / 2:.6e}")
+    pre = summary["preload"]
+    # The preload's contact force is the block's weight (its penalty's round-off only).
+    block_weight = 1000.0 * 0.06**3 * G
+    assert pre["contact_forces_N"]["feet"] == pytest.approx(block_weight, rel=1e-6)
+    if ratio > 1.0:
+        exact = (A - MU * G) * T**2 / 2.0
+        # 3 %: the block is elastic (E = 1e8 Pa): its sudden load sets off its shear and
+        # rocking modes (≈ 1 kHz), whose oscillating share of the friction force averages out
+        # over T; the rigid-block solution is the reference.
+        assert slip == pytest.approx(exact, rel=0.03)
+        assert summary["contact_groups"]["feet"]["max_slip_m"] >= 0.97 * exact
+    else:
+        assert abs(slip) < 0.01 * A / 2.0 * T**2
+
+
+def test_block_slides_over_ten_slab_elements_and_stops_where_coulomb_says(
+    shared_tmp: Path,
+) -> None:
+    """Issue 24's verification over a meshed elastic base: a pulse A over τ gives the block
+    v0 = Aτ relative to the slab; it slides over more than 10 of the slab's elements, is
+    re-paired triangle after triangle, and stops at v0/(μg) within 2 % and after
+    v0²(1 − μg/A)/(2μg) within 1 %."""
+    h = 0.015
+    mesh = shared_tmp / "long_slab.msh"
+    write_block_on_slab(mesh, slab=(0.36, 0.12, 0.03), corner=(0.26, 0.03), h_slab=h)
+    A, tau = 50.0, 0.02
+    v0 = A * tau
+    write_record(shared_tmp / "pulse.csv", [(0.0, A), (tau, A), (tau + 1e-9, 0.0), (1.0, 0.0)])
+    toml = scenario(mesh, shared_tmp / "pulse.csv", 0.4, 5e-4)
+    summary, hist = run_cli(shared_tmp, toml, "pulse")
+    t, slip = hist["t"], -hist["feet_slip_x"]
+    distance = v0**2 * (1.0 - MU * G / A) / (2.0 * MU * G)
+    assert distance > 10 * h
+    speed = np.diff(slip) / np.diff(t)
+    after = t[1:] > 2 * tau
+    # Stopped: the first sample after the pulse slower than 0.5 % of v0 (reached 0.5 % of
+    # v0/(μg) = 1.7 ms before the stop: within the 2 %).
+    t_stop = float(t[1:][after & (np.abs(speed) < 0.005 * v0)][0])
+    print(
+        f"stop {t_stop:.5f} s (exact {v0 / (MU * G):.5f}); slid {slip[-1]:.6f} m (exact "
+        f"{distance:.6f}); re-paired {summary['node_to_surface']['repairings']} times"
+    )
+    assert t_stop == pytest.approx(v0 / (MU * G), rel=0.02)
+    assert slip[-1] == pytest.approx(distance, rel=0.01)
+    assert summary["node_to_surface"]["repairings"] >= 10
