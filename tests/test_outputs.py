@@ -5,6 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import meshio
 import numpy as np
 import pytest
 from conftest import COMM
@@ -71,6 +72,18 @@ def test_cli_run_writes_history_summary_xdmf(shared_tmp) -> None:
 
     geometry, _, fields = read_xdmf(out / "solution.xdmf")
     assert set(fields) == {"displacement", "velocity", "contact_force"}
+    # One grid per time with every field: meshio's reader finds them all at every time.
+    with meshio.xdmf.TimeSeriesReader(out / "solution.xdmf") as reader:
+        points, cells = reader.read_points_cells()
+        assert [c.type for c in cells] == ["line"] and cells[0].data.shape == (50, 2)
+        assert reader.num_steps == len(fields["displacement"])
+        for k in range(reader.num_steps):
+            t, point_data, _ = reader.read_data(k)
+            assert {n: v.shape for n, v in point_data.items()} == {
+                n: (points.shape[0], 1) for n in fields
+            }
+            assert t == fields["velocity"][k][0]
+            np.testing.assert_array_equal(point_data["velocity"], fields["velocity"][k][1])
     times = [t for t, _ in fields["displacement"]]
     assert times[0] == 0.0 and times[-1] == pytest.approx(hist["t"][-1])
     assert np.all(np.diff(times) > 0)

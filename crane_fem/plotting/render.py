@@ -46,19 +46,22 @@ class XdmfFrames:
         domain = ET.parse(path).getroot().find("Domain")
         if domain is None:
             raise ValueError(f"{path}: not an XDMF file (no Domain)")
-        self.geometry = self._read(domain.find("Grid/Geometry/DataItem")).astype(np.float64)
-        self.topology = self._read(domain.find("Grid/Topology/DataItem")).astype(np.int64)
+        # The first mesh in the file: the series' (crane_fem.io.xdmf) or dolfinx's mesh grid.
+        self.geometry = self._read(domain.find(".//Geometry/DataItem")).astype(np.float64)
+        self.topology = self._read(domain.find(".//Topology/DataItem")).astype(np.int64)
         self._items: dict[str, list[tuple[float, ET.Element]]] = {}
         for coll in domain.findall("Grid[@GridType='Collection']"):
             for grid in coll.findall("Grid"):
-                time, attr = grid.find("Time"), grid.find("Attribute")
-                if time is None or attr is None or attr.find("DataItem") is None:
+                time = grid.find("Time")
+                if time is None:
                     continue
-                item = attr.find("DataItem")
-                assert item is not None
-                self._items.setdefault(attr.get("Name", ""), []).append(
-                    (float(time.get("Value", "nan")), item)
-                )
+                for attr in grid.findall("Attribute"):
+                    item = attr.find("DataItem")
+                    if item is None:
+                        continue
+                    self._items.setdefault(attr.get("Name", ""), []).append(
+                        (float(time.get("Value", "nan")), item)
+                    )
 
     def _read(self, item: ET.Element | None) -> npt.NDArray[Any]:
         import h5py
