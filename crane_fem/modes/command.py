@@ -89,7 +89,8 @@ def run_modes(
     mesh = build_mesh(sc, comm)
     if mesh.fixed_vertices.size == 0:
         raise ScenarioError("modes: the structure has no clamped vertex (it has rigid modes)")
-    mat = sc.material
+    # One [material], or per-group entries (cellwise on the mesh stage; one damping).
+    mat = sc.material[0] if isinstance(sc.material, list) else sc.material
     gravity = np.asarray(sc.loading.gravity, dtype=np.float64)
     st = assemble_closed_structure(mesh, mat.E, mat.nu, mat.rho, gravity, degree)
     n_free = st.n_free

@@ -4,7 +4,7 @@ consistent mass on the free DOFs, the rows of the clamped DOFs, and the wheel/ra
 All subdomains are one body on the parent mesh (the subdomain split is a choice of time
 integrators, not of mechanics). For the crane, every wheel/rail node pair is tied by a stiff
 spring k_p in all three components, k_p the largest diagonal entry of K (the preload's spring,
-:mod:`crane_fem.preload`). Why all three and not the normal (z) alone:
+:mod:`crane_fem.preload.crane`). Why all three and not the normal (z) alone:
 
 * with z alone the trolley keeps three rigid modes (x, y translation, rotation about z), K is
   singular and shift-and-invert at σ = 0 cannot factor it; the preload's cure, an isostatic
@@ -170,7 +170,8 @@ def assemble_closed_structure(
     Args:
         mesh: the pipeline's mesh stage: clamped vertices, the crane's pairs, and the
             per-cell density (carrying a hoisted mass) when it has one.
-        E, nu: Young's modulus (Pa) and Poisson's ratio.
+        E, nu: Young's modulus (Pa) and Poisson's ratio, used where the mesh stage has no
+            per-cell materials (a ``materials`` record with cellwise ``E``, ``nu``).
         rho: density (kg/m³), used where ``mesh.density`` is None.
         gravity: gravity vector (m/s²), for the static load.
         degree: Lagrange degree of the displacement (1 as the runs; 2 for references).
@@ -187,8 +188,16 @@ def assemble_closed_structure(
         density.x.array[density.function_space.dofmap.list[:, 0]] = mesh.density
     else:
         density = dolfinx.fem.Constant(msh, np.float64(rho))
-    mu = E / (2.0 * (1.0 + nu))
-    lmbda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+    E_: dolfinx.fem.Function | float = E
+    nu_: dolfinx.fem.Function | float = nu
+    cells = getattr(mesh, "materials", None)  # per-group materials, where the stage has them
+    if cells is not None:
+        W = dolfinx.fem.functionspace(msh, ("DG", 0))
+        E_, nu_ = dolfinx.fem.Function(W), dolfinx.fem.Function(W)
+        E_.x.array[W.dofmap.list[:, 0]] = cells.E
+        nu_.x.array[W.dofmap.list[:, 0]] = cells.nu
+    mu = E_ / (2.0 * (1.0 + nu_))
+    lmbda = E_ * nu_ / ((1.0 + nu_) * (1.0 - 2.0 * nu_))
     u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
 
     def eps(z: ufl.Argument) -> ufl.core.expr.Expr:
