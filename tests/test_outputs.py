@@ -143,3 +143,40 @@ def test_mpiexec_two_ranks_same_histories_as_serial(tmp_path) -> None:
             # (a stiff body in rigid motion has ε K u² of round-off in its strain energy).
             scale = energy_scale if col in ENERGIES else max(np.max(np.abs(h1[col])), 1e-300)
             assert np.max(np.abs(h1[col] - h2[col])) <= 1e-10 * scale, (name, col)
+
+
+QUICK = Path(__file__).parent.parent / "demos" / "crane_quick.toml"
+
+
+def test_support_and_bridge_stress_histories(shared_tmp) -> None:
+    """history.csv holds the support forces and the bridge's largest von Mises stress at the
+    rows where they are evaluated (every 2nd sampling interval here, and the last) and NaN at
+    the others; their peaks in summary.json are the largest of those rows, at their times."""
+    out = shared_tmp / "crane"
+    sets = ["time.end=0.004", "output.xdmf=false", "output.every=1", "output.stress_every=2"]
+    args = ["run", str(QUICK), "-o", str(out), "--no-progress"]
+    assert main([*args, *[a for s in sets for a in ("--set", s)]]) == 0
+    COMM.barrier()
+    hist = read_history(out / "history.csv")
+    summary = json.loads((out / "summary.json").read_text())
+    sample = np.rint(hist["t"] / summary["sampling_interval_s"]).astype(int)
+    assert np.array_equal(sample, np.arange(sample.size)) and sample.size > 10
+    evaluated = sample % 2 == 0
+    evaluated[-1] = True
+    vm = hist["bridge_von_mises_max"]
+    assert np.array_equal(np.isfinite(vm), evaluated)
+    assert np.all(vm[evaluated] > 0.0)
+    k = int(np.nanargmax(vm))
+    assert summary["peak_bridge_von_mises_Pa"] == vm[k]
+    assert summary["peak_bridge_von_mises_t"] == hist["t"][k]
+    faces = summary["supports"]
+    assert len(faces) == 4
+    for face, s in faces.items():
+        f = np.column_stack([hist[f"support{face}_f{c}"] for c in "xyz"])
+        assert np.array_equal(np.isfinite(f).all(axis=1), evaluated), face
+        norm = np.linalg.norm(f, axis=1)
+        k = int(np.nanargmax(norm))
+        assert s["peak_force_N"] == pytest.approx(norm[k], rel=1e-14)
+        assert s["peak_force_time_s"] == hist["t"][k]
+        assert s["initial_force_N"] == pytest.approx(f[0].tolist(), rel=1e-14)
+        assert s["peak_vertical_N"] == pytest.approx(np.nanmax(np.abs(f[:, 2])), rel=1e-14)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import dolfinx
@@ -18,7 +19,9 @@ class BridgeStress:
     """The peak von Mises stress over the crane's bridge cells (girders, end carriages, the
     rails outside the explicit zones) every ``output.stress_every`` sampling intervals and at
     the last: of the implicit side in a coupled run, of the whole mesh in the fully explicit one
-    (collective)."""
+    (collective). Its history column holds the value at the instants it was evaluated and NaN
+    at the rows between them (``stress_every`` > 1): a value carried over would be stamped
+    with a later time than its own."""
 
     def __init__(self, sim: Simulation) -> None:
         md = sim.models
@@ -33,7 +36,7 @@ class BridgeStress:
         n_parent += tagged.mesh.topology.index_map(tagged.mesh.topology.dim).num_ghosts
         bridge = np.zeros(n_parent, dtype=bool)
         bridge[tagged.cell_tags.indices[tagged.cell_tags.values == tag]] = True
-        self.vm = VonMises(sub.V, sim.scenario.material.E, sim.scenario.material.nu)
+        self.vm = VonMises(sub.V, sim.scenario.uniform_material.E, sim.scenario.uniform_material.nu)
         own = sub.parent_cells[: self.vm.n_cells]
         self.cells = np.flatnonzero(bridge[own]).astype(np.int32)
         # The part of each bridge cell (end carriages, girders, rails: THEORY.md §8 (b) asks
@@ -52,12 +55,14 @@ class BridgeStress:
         self.location = np.zeros(3)
         self.part_peak = np.zeros(len(self.parts))
         self.part = ""
-        #: The largest stress over the bridge at the last evaluation (Pa): a history column.
-        self.last = 0.0
+        #: The largest stress over the bridge at the last sampled record (Pa; NaN when the
+        #: stress was not evaluated there): the history column.
+        self.last = math.nan
 
     @property
     def columns(self) -> list[str]:
-        """The history column: the largest stress at the last evaluation (Pa)."""
+        """The history column: the largest stress over the bridge at the row's instant (Pa),
+        NaN at a row where it is not evaluated."""
         return ["bridge_von_mises_max"]
 
     def history_row(self) -> dict[str, float]:
@@ -66,6 +71,7 @@ class BridgeStress:
     def update(self, rec: MacroRecord, last: bool) -> None:
         # The stress needs the side's whole field (a reduced side expands it): sampled.
         if not (rec.micro_step % self.every == 0 or last):
+            self.last = math.nan
             return
         u = rec.implicit_u if self.side == "implicit" else rec.explicit_u
         assert u is not None

@@ -17,8 +17,10 @@ __all__ = ["SupportsMonitor", "create_supports"]
 
 class SupportsMonitor:
     """:class:`SupportReactions` on the fields of the side that holds the clamped faces,
-    every ``output.stress_every`` sampling intervals (collective). Owns the reactions' PETSc
-    matrices: :meth:`destroy` them."""
+    every ``output.stress_every`` sampling intervals and at the last (collective). Owns the
+    reactions' PETSc matrices: :meth:`destroy` them. Its history columns hold the forces at
+    the instants they were evaluated and NaN at the rows between them (``stress_every`` > 1),
+    as the bridge stress's do."""
 
     def __init__(self, sim: Simulation, reactions: SupportReactions) -> None:
         md = sim.models
@@ -27,12 +29,14 @@ class SupportsMonitor:
         # Every ``stress_every`` sampling intervals, in micro steps.
         self.every = sim.scenario.output.stress_every * md.sample_steps
         self.ground = GroundAcceleration(sim.scenario)
-        #: The forces of the last evaluation (n_faces, bs), N: the history's columns.
-        self.last = np.zeros((reactions.n_faces, reactions.bs))
+        #: The forces at the last sampled record (n_faces, bs), N (NaN when they were not
+        #: evaluated there): the history's columns.
+        self.last = np.full((reactions.n_faces, reactions.bs), np.nan)
 
     @property
     def columns(self) -> list[str]:
-        """The history columns: each face's force components (N), at the last evaluation."""
+        """The history columns: each face's force components (N) at the row's instant, NaN at
+        a row where they are not evaluated."""
         r = self.reactions
         return [f"support{k + 1}_f{'xyz'[c]}" for k in range(r.n_faces) for c in range(r.bs)]
 
@@ -41,7 +45,8 @@ class SupportsMonitor:
 
     def update(self, rec: MacroRecord, last: bool) -> None:
         # The side's whole field (a reduced side expands it): sampled, not every step.
-        if rec.micro_step % self.every != 0:
+        if not (rec.micro_step % self.every == 0 or last):
+            self.last = np.full_like(self.last, np.nan)
             return
         u = rec.implicit_u if self.on_implicit else rec.explicit_u
         v = rec.implicit_v if self.on_implicit else rec.explicit_v
@@ -70,7 +75,7 @@ def create_supports(sim: Simulation) -> SupportsMonitor | None:
         if sub is None or sub.bs != 3:
             continue
         if sim.mesh.comm.allreduce(int(np.count_nonzero(sub.model.fixed)), op=MPI.SUM):
-            mat = sc.material
+            mat = sc.uniform_material
             return SupportsMonitor(
                 sim,
                 SupportReactions(
