@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 
@@ -28,31 +29,44 @@ def write_mode_shapes(path: Path, st: ClosedStructure, basis: ModalBasis) -> Pat
     msh = st.V.mesh
     tdim = msh.topology.dim
     n_own = st.block_vertex.size
-    # The owned vertex blocks: their global vertex, coordinates and mode values.
-    full = np.zeros((basis.omega.size, 3 * n_own))
+    n_modes = basis.omega.size
+    # Points are numbered by the mesh file's node order (the geometry's input index), so
+    # the file is the same whatever the number of ranks.
+    msh.topology.create_connectivity(0, tdim)
+    imap_v = msh.topology.index_map(0)
+    n_v = imap_v.size_local + imap_v.num_ghosts
+    geom = dolfinx.mesh.entities_to_geometry(msh, 0, np.arange(n_v, dtype=np.int32)).ravel()
+    input_of = np.asarray(msh.geometry.input_global_indices, dtype=np.int64)[geom]
+    glob = np.asarray(imap_v.local_to_global(np.arange(n_v, dtype=np.int32)), dtype=np.int64)
+    order = np.argsort(glob)
+    # The owned vertex blocks: their point, coordinates and mode values.
+    full = np.zeros((n_modes, 3 * n_own))
     full[:, st.free] = basis.shapes
     blocks = np.flatnonzero(st.block_vertex >= 0)
+    local_v = order[np.searchsorted(glob[order], st.block_vertex[blocks])]
     xyz = st.V.tabulate_dof_coordinates()[blocks]
-    values = full.reshape(basis.omega.size, n_own, 3)[:, blocks, :]
-    imap_c = msh.topology.index_map(tdim)
-    c2v = msh.topology.connectivity(tdim, 0).array.reshape(-1, tdim + 1)[: imap_c.size_local]
-    cells = np.asarray(msh.topology.index_map(0).local_to_global(c2v.ravel()), dtype=np.int64)
-    parts = comm.gather((st.block_vertex[blocks], xyz, values, cells.reshape(-1, tdim + 1)))
+    values = full.reshape(n_modes, n_own, 3)[:, blocks, :]
+    msh.topology.create_connectivity(tdim, 0)
+    n_cells = msh.topology.index_map(tdim).size_local
+    c2v = msh.topology.connectivity(tdim, 0).array.reshape(-1, tdim + 1)[:n_cells]
+    parts = comm.gather((input_of[local_v], xyz, values, input_of[c2v]))
     if comm.rank == 0:
         import meshio
 
         assert parts is not None
-        n_vertices = msh.topology.index_map(0).size_global
-        points = np.zeros((n_vertices, 3))
-        shapes = np.zeros((basis.omega.size, n_vertices, 3))
-        for ids, x, v, _ in parts:
-            points[ids] = x
-            shapes[:, ids, :] = v
-        topology = np.concatenate([c for *_, c in parts])
+        ids = np.unique(np.concatenate([p[0] for p in parts]))
+        points = np.zeros((ids.size, 3))
+        shapes = np.zeros((n_modes, ids.size, 3))
+        for node, x, v, _ in parts:
+            k = np.searchsorted(ids, node)
+            points[k] = x
+            shapes[:, k, :] = v
+        topology = np.searchsorted(ids, np.concatenate([p[3] for p in parts]))
+        topology = topology[np.lexsort(np.sort(topology, axis=1).T[::-1])]
         mesh = meshio.Mesh(
             points,
             [("tetra", topology)],
-            point_data={f"mode_{k + 1}": shapes[k] for k in range(basis.omega.size)},
+            point_data={f"mode_{k + 1}": shapes[k] for k in range(n_modes)},
         )
         path.parent.mkdir(parents=True, exist_ok=True)
         meshio.write(path, mesh, file_format="xdmf")
