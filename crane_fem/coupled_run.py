@@ -53,6 +53,7 @@ def _xdmf_writers(
     paths = [out / f"solution_{sub.name.replace('+', '_')}.xdmf" for sub in subs]
     if resume is not None:
         resume_series(resume[0], out, paths, resume[1], sim.mesh.comm)
+    mat = sc.materials[0][1]
     for sub, path in zip(subs, paths, strict=True):
         is_e = sub is md.explicit
         names = ["displacement", "velocity"] + (["contact_force"] if is_e else [])
@@ -61,7 +62,8 @@ def _xdmf_writers(
             sub.V,
             names,
             constants={"subdomain": 0.0 if is_e else 1.0},
-            von_mises=(sc.material.E, sc.material.nu) if sub.bs == 3 else None,
+            # One material: its von Mises stress (several materials: not written yet).
+            von_mises=(mat.E, mat.nu) if sub.bs == 3 and len(sc.materials) == 1 else None,
             append=resume is not None,
         )
         writers.append((sub, series))

@@ -117,8 +117,8 @@ LoadFunction = Callable[[float], FloatArray]
 
 def assemble_structure(
     V: dolfinx.fem.FunctionSpace,
-    E: float,
-    nu: float,
+    E: float | dolfinx.fem.Function,
+    nu: float | dolfinx.fem.Function,
     rho: float | dolfinx.fem.Function,
     area: dolfinx.fem.Function | float,
     fixed_dofs: npt.NDArray[np.int32],
@@ -127,9 +127,9 @@ def assemble_structure(
     """Stiffness, row-sum lumped mass and (optionally) consistent mass of a linear structure.
 
     A scalar space is an axial bar (∫ E A u' w' dx, mass ρ A); a vector space is 3D linear
-    elasticity (E, ν; mass ρ, a constant or a cellwise DG0 function). Fixed DOFs (local, owned
-    and ghost) get zero rows/columns, unit diagonal in K and M. Collective over the mesh
-    communicator.
+    elasticity (E, ν and the mass's ρ: constants or cellwise DG0 functions). Fixed DOFs
+    (local, owned and ghost) get zero rows/columns, unit diagonal in K and M. Collective over
+    the mesh communicator.
 
     Returns:
         ``(K, lumped, M)``: the caller owns ``K`` and ``M``; ``lumped`` holds owned DOFs only.

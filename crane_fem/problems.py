@@ -91,11 +91,11 @@ def create_problem(comm: MPI.Comm, sc: Scenario) -> Problem:
         np.flatnonzero(node == first_right) if mdl.clamp == "right" else np.zeros(0, dtype=np.int64)
     )
     K, mass = assemble_bar_operators(
-        V, sc.material.E, sc.material.rho, area, fixed_local.astype(np.int32)
+        V, sc.uniform_material.E, sc.uniform_material.rho, area, fixed_local.astype(np.int32)
     )
     fixed = np.zeros(n_own, dtype=bool)
     fixed[fixed_local[fixed_local < n_own]] = True
-    alpha, beta = sc.material.rayleigh_coefficients
+    alpha, beta = sc.uniform_material.rayleigh_coefficients
     model = StructuralModel(V, K, mass, fixed, alpha, beta)
 
     # Contact points: terms on the DOFs this rank owns.
@@ -164,6 +164,6 @@ def create_problem(comm: MPI.Comm, sc: Scenario) -> Problem:
         u0=u0,
         v0=v0,
         h_min=min(s.h for s in segments),
-        wave_speed=math.sqrt(sc.material.E / sc.material.rho),
+        wave_speed=math.sqrt(sc.uniform_material.E / sc.uniform_material.rho),
         bodies=bodies,
     )

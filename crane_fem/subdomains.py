@@ -13,7 +13,7 @@ from mpi4py import MPI
 from crane_fem.geometry.tagged import TaggedMesh
 from crane_fem.model import StructuralModel, assemble_structure
 
-__all__ = ["Subdomain", "create_subdomain"]
+__all__ = ["Subdomain", "cell_function", "create_subdomain"]
 
 IntArray = npt.NDArray[np.int64]
 
@@ -85,6 +85,13 @@ def _vertex_to_block(mesh: dolfinx.mesh.Mesh, V: dolfinx.fem.FunctionSpace) -> I
     return out
 
 
+def cell_function(msh: dolfinx.mesh.Mesh, values: npt.NDArray[np.float64]) -> dolfinx.fem.Function:
+    """A DG0 function on ``msh`` of the given value per local cell (owned and ghost)."""
+    f = dolfinx.fem.Function(dolfinx.fem.functionspace(msh, ("DG", 0)))
+    f.x.array[f.function_space.dofmap.list[:, 0]] = values
+    return f
+
+
 def create_subdomain(
     tagged: TaggedMesh,
     name: str,
@@ -98,6 +105,7 @@ def create_subdomain(
     fixed_vertices: IntArray,
     consistent_mass: bool,
     cell_density: npt.NDArray[np.float64] | None = None,
+    cell_elastic: tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]] | None = None,
 ) -> Subdomain:
     """Build the subdomain of ``cells`` (owned parent cells; collective over the mesh comm).
 
@@ -106,6 +114,8 @@ def create_subdomain(
         consistent_mass: also assemble the consistent mass matrix (Newmark).
         cell_density: density of every local parent cell (owned and ghost), overriding
             ``rho``; None for a uniform ``rho``.
+        cell_elastic: (E, ν) of every local parent cell, overriding ``E`` and ``nu``; None
+            for uniform ones.
     """
     parent = tagged.mesh
     tdim = parent.topology.dim
@@ -141,7 +151,11 @@ def create_subdomain(
         density = dolfinx.fem.Function(dolfinx.fem.functionspace(sub, ("DG", 0)))
         dofs = density.function_space.dofmap.list[:, 0]  # one DOF per cell, row = cell
         density.x.array[dofs] = cell_density[parent_cells]
-    K, lumped, M = assemble_structure(V, E, nu, density, area, bc_dofs, consistent_mass)
+    young: float | dolfinx.fem.Function = E
+    poisson: float | dolfinx.fem.Function = nu
+    if cell_elastic is not None:
+        young, poisson = (cell_function(sub, values[parent_cells]) for values in cell_elastic)
+    K, lumped, M = assemble_structure(V, young, poisson, density, area, bc_dofs, consistent_mass)
     n_own = V.dofmap.index_map.size_local * bs
     fixed = np.zeros(n_own, dtype=bool)
     fixed[fixed_dofs[fixed_dofs < n_own]] = True

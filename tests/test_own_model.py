@@ -176,3 +176,31 @@ def test_block_slides_over_ten_slab_elements_and_stops_where_coulomb_says(
     assert t_stop == pytest.approx(v0 / (MU * G), rel=0.02)
     assert slip[-1] == pytest.approx(distance, rel=0.01)
     assert summary["node_to_surface"]["repairings"] >= 10
+
+
+@pytest.mark.serial  # set-up only: its two-rank behaviour is the runs' above
+def test_materials_and_masses_per_group(shared_tmp: Path) -> None:
+    """``[[material]]`` per volume group and ``[[mass]]`` on a group reach the model: the
+    preload's contact force is the block's own weight (its ρ) plus its carried mass; a
+    stiffer block shortens the critical step (its E)."""
+    mesh = shared_tmp / "block_on_slab.msh"
+    write_block_on_slab(mesh)
+    write_record(shared_tmp / "zero.csv", [(0.0, 0.0), (1.0, 0.0)])
+    base = scenario(mesh, shared_tmp / "zero.csv", 2e-4, 1e-4)
+    one = base.split("[material]")[0]
+    rest = base.split("nu = 0.3\n", 1)[1]
+
+    def with_materials(e_block: float, rho_block: float, mass: float) -> str:
+        entries = (
+            '[[material]]\ngroups = ["slab"]\nE = 1e8\nrho = 1000.0\n'
+            f'[[material]]\ngroups = ["block"]\nE = {e_block}\nrho = {rho_block}\n'
+        )
+        extra = f'[[mass]]\ngroup = "block"\nmass = {mass}\n' if mass else ""
+        return one + entries + extra + rest
+
+    s1, _ = run_cli(shared_tmp, with_materials(1e8, 3000.0, 0.5), "per_group")
+    weight = (3000.0 * 0.06**3 + 0.5) * G
+    assert s1["preload"]["contact_forces_N"]["feet"] == pytest.approx(weight, rel=1e-6)
+    s2, _ = run_cli(shared_tmp, with_materials(1e9, 1000.0, 0.0), "stiff_block")
+    s0, _ = run_cli(shared_tmp, base, "uniform")
+    assert s2["dt_critical"] < 0.9 * s0["dt_critical"]

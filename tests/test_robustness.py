@@ -26,6 +26,7 @@ DEMOS = ROOT / "demos"
 QUICK = DEMOS / "crane_quick.toml"
 BAR = DEMOS / "bar_impact.toml"
 MESH = ROOT / "meshes" / "crane.msh"
+OWN_MESH = DEMOS / "own_model" / "cabinet_on_slab.msh"
 BIN = Path(sys.executable).parent
 AT2_HEAD = (
     "# a comment line: counted in the line numbers\nPEER\nRSN0\n"
@@ -157,6 +158,39 @@ def _cases(tmp: Path) -> dict[str, tuple[list[str], list[str]]]:
         ),
         "outdir_file": (["run", q, "-o", str(as_file)], [f"output directory {as_file} is a file"]),
     }
+    # A gmsh model (demos/own_model): groups that are not in its mesh, contact points off
+    # their surface or buried in it.
+    own = DEMOS / "own_model" / "cabinet_on_slab.toml"
+    own_text = own.read_text().replace('mesh = "cabinet_on_slab.msh"', f'mesh = "{OWN_MESH}"')
+    variants = {
+        "gmsh_no_mesh": (own_text.replace(str(OWN_MESH), "nope.msh"), ["model.mesh", "nope.msh"]),
+        "gmsh_surface_group": (
+            own_text.replace('surface = "floor"', 'surface = "flor"'),
+            ["contact[0].surface", "'flor'", "floor"],
+        ),
+        "gmsh_points_off": (
+            own_text.replace('points = "cabinet_feet"', 'points = "X"')
+            .replace('surface = "floor"', 'surface = "cabinet_feet"')
+            .replace('points = "X"', 'points = "floor"'),
+            ["contact[0].points", "'floor'", "projects onto no triangle", "'cabinet_feet'"],
+        ),
+        "gmsh_points_buried": (
+            own_text.replace('points = "cabinet_feet"', 'points = "slab_underside"'),
+            ["contact[0].points", "'slab_underside'", "inside", "'floor'"],
+        ),
+        "gmsh_material_group": (
+            own_text.replace('groups = ["cabinet"]', 'groups = ["cabinet", "roof"]'),
+            ["material[1].groups", "'roof'"],
+        ),
+        "gmsh_support_group": (
+            own_text.replace('group = "slab_underside"', 'group = "ground"'),
+            ["support[0].group", "'ground'"],
+        ),
+    }
+    for name, (text, fragments) in variants.items():
+        path = tmp / f"{name}.toml"
+        path.write_text(text)
+        cases[name] = (["check", str(path)], fragments)
     unwritable = _unwritable(tmp)
     if unwritable is not None:
         cases["outdir_unwritable"] = (["run", q, "-o", str(unwritable)], [str(unwritable)])

@@ -141,7 +141,7 @@ def initial_state(
         v0 = np.full(n_own, sc.initial.bar_velocity)
         p = sc.initial.pulse
         if p is not None:
-            c = math.sqrt(sc.material.E / sc.material.rho)
+            c = math.sqrt(sc.uniform_material.E / sc.uniform_material.rho)
             z = (X - p.center) / p.width
             inside = np.abs(z) < 0.5
             u0 = u0 + np.where(inside, p.amplitude * np.cos(math.pi * z) ** 2, 0.0)

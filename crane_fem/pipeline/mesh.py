@@ -29,7 +29,7 @@ from crane_fem.scenario import (
     SurfaceContact,
 )
 
-__all__ = ["MeshStage", "PointsOnSurface", "build_mesh", "create_tagged_mesh"]
+__all__ = ["CellMaterial", "MeshStage", "PointsOnSurface", "build_mesh", "create_tagged_mesh"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -67,6 +67,8 @@ class MeshStage:
         density: density of every local parent cell (ρ plus a hoisted mass spread over the
             trolley frame), or None for a uniform ρ.
         surface_contacts: a gmsh model's node-to-surface contacts, in the scenario's order.
+        materials: E, ν, ρ of every local parent cell where they vary by group (a gmsh
+            model's ``[[material]]`` entries), else None (``density`` holds ρ).
     """
 
     comm: MPI.Comm
@@ -75,6 +77,7 @@ class MeshStage:
     fixed_vertices: IntArray
     density: FloatArray | None
     surface_contacts: tuple[PointsOnSurface, ...] = ()
+    materials: CellMaterial | None = None
 
 
 def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh | CraneMesh:
@@ -96,19 +99,36 @@ def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh | CraneMesh:
     return create_split_bar(comm, Segment(x0, mdl.length, mdl.elements, mdl.area), split)
 
 
-def _cell_density(sc: Scenario, tagged: TaggedMesh) -> FloatArray:
-    """Density of every local parent cell: ρ, plus each mass carried rigidly by a group
-    spread uniformly over its volume (the crane's hoisted mass on its trolley frame, a gmsh
-    model's ``[[mass]]`` entries)."""
+@dataclass(frozen=True)
+class CellMaterial:
+    """E (Pa), ν and ρ (kg/m³) of every local parent cell (owned and ghost); ρ includes the
+    masses carried rigidly by a group."""
+
+    E: FloatArray
+    nu: FloatArray
+    rho: FloatArray
+
+
+def _cell_material(sc: Scenario, tagged: TaggedMesh) -> CellMaterial:
+    """Each cell's material (its groups' ``[[material]]`` entry, or the one ``[material]``),
+    plus each mass carried rigidly by a group spread uniformly over its volume (the crane's
+    hoisted mass on its trolley frame, a gmsh model's ``[[mass]]`` entries) (collective)."""
     mdl = sc.model
+    msh = tagged.mesh
+    imap = msh.topology.index_map(msh.topology.dim)
+    n = imap.size_local + imap.num_ghosts
+    E, nu, rho = np.zeros(n), np.zeros(n), np.zeros(n)
+    for names, mat in sc.materials:
+        if names is None:
+            cells: npt.NDArray[np.int32] | slice = slice(None)
+        else:
+            tags = [tagged.cell_groups[g] for g in names]
+            cells = tagged.cell_tags.indices[np.isin(tagged.cell_tags.values, tags)]
+        E[cells], nu[cells], rho[cells] = mat.E, mat.nu, mat.rho
     carried: list[tuple[str, float]] = []
     if isinstance(mdl, CraneModel) and mdl.hoisted_mass > 0.0:
         carried.append(("trolley_frame", mdl.hoisted_mass))
     carried += [(m.group, m.mass) for m in sc.mass]
-    rho = sc.material.rho
-    msh = tagged.mesh
-    imap = msh.topology.index_map(msh.topology.dim)
-    density = np.full(imap.size_local + imap.num_ghosts, rho)
     dx = ufl.Measure("dx", domain=msh, subdomain_data=tagged.cell_tags)
     one = dolfinx.fem.Constant(msh, np.float64(1.0))
     for group, mass in carried:
@@ -116,9 +136,8 @@ def _cell_density(sc: Scenario, tagged: TaggedMesh) -> FloatArray:
         vol = msh.comm.allreduce(
             dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * dx(tag))), op=MPI.SUM
         )
-        cells = tagged.cell_tags.indices[tagged.cell_tags.values == tag]
-        density[cells] += mass / vol
-    return density
+        rho[tagged.cell_tags.indices[tagged.cell_tags.values == tag]] += mass / vol
+    return CellMaterial(E, nu, rho)
 
 
 def _surface_contacts(sc: Scenario, tagged: TaggedMesh) -> tuple[PointsOnSurface, ...]:
@@ -146,6 +165,19 @@ def _surface_contacts(sc: Scenario, tagged: TaggedMesh) -> tuple[PointsOnSurface
                 f"triangle of surface group {c.surface!r} at t = 0 (each point must lie over "
                 "the surface it touches)"
             )
+        # A point inside the other body by more than a mesh's chordal error on a curved
+        # surface (h²/8R: 1 % of h at R = 12 h) is a wrong group, not a contact.
+        edges = surface.xyz[surface.triangles] - surface.xyz[np.roll(surface.triangles, 1, 1)]
+        depth = 0.05 * float(np.linalg.norm(edges, axis=2).mean())
+        buried = np.flatnonzero(pairing.gap < -depth)
+        if buried.size:
+            k = int(buried[np.argmin(pairing.gap[buried])])
+            raise ScenarioError(
+                f"contact[{i}].points: vertex {int(points[k])} of group {c.points!r} starts "
+                f"{-pairing.gap[k]:.4g} m inside surface group {c.surface!r} (more than 5 % "
+                "of its element size): the points must touch the surface or face it across a "
+                "gap"
+            )
         out.append(PointsOnSurface(c.label, points, X, surface, pairing, c.friction))
     return tuple(out)
 
@@ -169,6 +201,11 @@ def build_mesh(sc: Scenario, comm: MPI.Comm) -> MeshStage:
         clamp_local = tagged.facet_vertices(groups.BAR_RIGHT_END)
     else:
         clamp_local = np.zeros(0, dtype=np.int32)
-    density = _cell_density(sc, tagged) if isinstance(mdl, CraneModel | GmshModel) else None
+    material = _cell_material(sc, tagged) if isinstance(mdl, CraneModel | GmshModel) else None
+    density = material.rho if material is not None else None
+    # Per-cell E and ν only where they vary (a gmsh model's [[material]] entries).
+    cells = material if material is not None and len(sc.materials) > 1 else None
     surfaces = _surface_contacts(sc, tagged) if isinstance(mdl, GmshModel) else ()
-    return MeshStage(comm, tagged, crane, tagged.global_vertices(clamp_local), density, surfaces)
+    return MeshStage(
+        comm, tagged, crane, tagged.global_vertices(clamp_local), density, surfaces, cells
+    )

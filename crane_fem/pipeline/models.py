@@ -146,13 +146,15 @@ def _gmsh_preload(sc: Scenario, mesh: MeshStage) -> Preload:
     lo, hi = x.min(axis=0, initial=np.inf), x.max(axis=0, initial=-np.inf)
     lo = np.array([mesh.comm.allreduce(float(v), op=MPI.MIN) for v in lo])
     hi = np.array([mesh.comm.allreduce(float(v), op=MPI.MAX) for v in hi])
+    mat = mesh.materials
+    uniform = sc.materials[0][1]
     return bonded_preload(
         mesh.tagged,
         bonded_points(mesh),
         len(mesh.surface_contacts),
         mesh.fixed_vertices,
-        sc.material.E,
-        sc.material.nu,
+        mat.E if mat is not None else uniform.E,
+        mat.nu if mat is not None else uniform.nu,
         mesh.density,
         np.asarray(sc.loading.gravity, dtype=np.float64),
         # Touching at t = 0: within round-off of the model's size (a mesh's nodes on a
@@ -163,11 +165,12 @@ def _gmsh_preload(sc: Scenario, mesh: MeshStage) -> Preload:
 
 def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
     """Preload, subdomains and steps (collective)."""
-    mdl, mat = sc.model, sc.material
+    mdl, mat = sc.model, sc.materials[0][1]  # E, ν, ρ where uniform (else mesh.materials)
+    elastic = (mesh.materials.E, mesh.materials.nu) if mesh.materials is not None else None
     tagged, fixed = mesh.tagged, mesh.fixed_vertices
     method, ratio, specs = _specs(sc, mesh)
     area = mdl.area if isinstance(mdl, BarModel) else 1.0
-    rayleigh = mat.rayleigh_coefficients
+    rayleigh = sc.rayleigh_coefficients
     preload = None
     if mesh.crane is not None and np.any(np.asarray(sc.loading.gravity) != 0.0):
         assert mesh.density is not None
@@ -201,6 +204,7 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             fixed,
             consistent_mass=False,
             cell_density=mesh.density,
+            cell_elastic=elastic,
         )
     if implicit_specs:
         implicit = create_subdomain(
@@ -216,6 +220,7 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             fixed,
             consistent_mass=sc.newmark.mass == "consistent",
             cell_density=mesh.density,
+            cell_elastic=elastic,
         )
     # Δt from the explicit subdomain's own critical step.
     step_sub = explicit if explicit is not None else implicit

@@ -28,6 +28,7 @@ from crane_fem.errors import CraneFemError
 from crane_fem.geometry.tagged import TaggedMesh
 from crane_fem.model import assemble_structure
 from crane_fem.preload.crane import Preload, vertex_blocks
+from crane_fem.subdomains import cell_function
 
 __all__ = ["BondedPoints", "bonded_preload"]
 
@@ -59,8 +60,8 @@ def bonded_preload(
     points: BondedPoints,
     n_groups: int,
     fixed_vertices: IntArray,
-    E: float,
-    nu: float,
+    E: float | FloatArray,
+    nu: float | FloatArray,
     cell_density: FloatArray,
     gravity: FloatArray,
     touching: float,
@@ -69,6 +70,8 @@ def bonded_preload(
 
     Args:
         n_groups: number of contact groups (the size of ``wheel_force``: per group).
+        E, nu: Young's modulus (Pa) and Poisson's ratio, uniform or of every local parent
+            cell (owned and ghost).
         fixed_vertices: clamped global vertex ids.
         cell_density: density of every local parent cell (owned and ghost), kg/m³.
         touching: a point whose gap at X is at most this (m) starts closed.
@@ -86,13 +89,14 @@ def bonded_preload(
     comm = msh.comm
     bs = 3
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (bs,)))
-    rho = dolfinx.fem.Function(dolfinx.fem.functionspace(msh, ("DG", 0)))
-    rho.x.array[rho.function_space.dofmap.list[:, 0]] = cell_density
+    rho = cell_function(msh, cell_density)
+    young = cell_function(msh, E) if isinstance(E, np.ndarray) else E
+    poisson = cell_function(msh, nu) if isinstance(nu, np.ndarray) else nu
     gv, blocks = vertex_blocks(V)
     imap = V.dofmap.index_map
     n_own = imap.size_local
     clamped = blocks[np.isin(gv, fixed_vertices)].astype(np.int32)
-    K, lumped, _ = assemble_structure(V, E, nu, rho, 1.0, clamped, False)
+    K, lumped, _ = assemble_structure(V, young, poisson, rho, 1.0, clamped, False)
     g = np.asarray(gravity, dtype=np.float64)
     f = (lumped.reshape(-1, bs) * g[None, :]).ravel()
     own_clamped = clamped[clamped < n_own]

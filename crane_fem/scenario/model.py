@@ -7,7 +7,7 @@ import functools
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from crane_fem.scenario.base import NonNegativeFloat, PositiveFloat, PositiveInt, Section
 
@@ -183,15 +183,17 @@ class GmshModel(Section):
     kind: Literal["gmsh"]
     mesh: str
 
-    @model_validator(mode="after")
-    def _readable(self) -> GmshModel:
+    @field_validator("mesh")
+    @classmethod
+    def _readable(cls, mesh: str) -> str:
         from crane_fem.errors import ScenarioError
 
+        path = Path(mesh)
         try:
-            self.names()
+            _physical_names(str(path), path.stat().st_mtime if path.is_file() else 0.0)
         except ScenarioError as exc:
             raise ValueError(str(exc).removeprefix("model.mesh: ")) from None
-        return self
+        return mesh
 
     def names(self) -> Any:
         """The file's named physical groups (crane_fem.geometry.gmsh_file.PhysicalNames)."""

@@ -29,6 +29,7 @@ from crane_fem.scenario.model import BarModel, BlockModel, BoxBeamModel, CraneMo
 from crane_fem.scenario.sections import (
     Contact,
     GroupMass,
+    GroupMaterial,
     Initial,
     Integrator,
     Material,
@@ -55,7 +56,7 @@ class Scenario(Section):
     model: Annotated[
         BarModel | BoxBeamModel | CraneModel | BlockModel | GmshModel, Field(discriminator="kind")
     ]
-    material: Material
+    material: Material | list[GroupMaterial]
     initial: Initial = Initial()
     contact: list[Annotated[Contact | SurfaceContact, Field(discriminator="type")]] = []
     support: list[Support] = []
@@ -81,9 +82,34 @@ class Scenario(Section):
             or isinstance(self.model, BlockModel | GmshModel)
         )
 
+    @property
+    def materials(self) -> list[tuple[list[str] | None, Material]]:
+        """(volume groups, material) of each material; groups None: every group."""
+        if isinstance(self.material, Material) and not isinstance(self.material, GroupMaterial):
+            return [(None, self.material)]
+        assert isinstance(self.material, list)
+        return [(list(m.groups), m) for m in self.material]
+
+    @property
+    def uniform_material(self) -> Material:
+        """The one material of a scene with a single ``[material]`` (every model kind but
+        'gmsh' has one: the validation refuses a list there)."""
+        assert isinstance(self.material, Material), "material: one table expected"
+        return self.material
+
+    @property
+    def rayleigh_coefficients(self) -> tuple[float, float]:
+        """(alpha, beta) of C = alpha M + beta K: the materials' (they agree)."""
+        return self.materials[0][1].rayleigh_coefficients
+
     @model_validator(mode="after")
     def _gmsh_groups(self) -> Scenario:
         mdl = self.model
+        if not isinstance(mdl, GmshModel) and isinstance(self.material, list):
+            raise ValueError(
+                "material: [[material]] entries (one per set of volume groups) apply to "
+                f"model.kind 'gmsh'; model.kind {mdl.kind!r} takes one [material] table"
+            )
         if not isinstance(mdl, GmshModel):
             for key, given in (("support", self.support), ("mass", self.mass)):
                 if given:
@@ -100,6 +126,29 @@ class Scenario(Section):
             return self
         volumes, surfaces = mdl.groups, mdl.surface_groups
         where = f"(in {Path(mdl.mesh).name}: {', '.join(surfaces) or 'none'})"
+        if isinstance(self.material, list):
+            seen: dict[str, int] = {}
+            for i, m in enumerate(self.material):
+                for g in m.groups:
+                    if g not in volumes:
+                        raise ValueError(
+                            f"material[{i}].groups: {g!r} is not a named volume group (in "
+                            f"{Path(mdl.mesh).name}: {', '.join(volumes)})"
+                        )
+                    if g in seen:
+                        raise ValueError(
+                            f"material[{i}].groups: {g!r} already has material[{seen[g]}]"
+                        )
+                    seen[g] = i
+                if m.rayleigh_coefficients != self.material[0].rayleigh_coefficients:
+                    raise ValueError(
+                        f"material[{i}]: its damping differs from material[0]'s; the damping "
+                        "C = αM + βK is one per scene (give every entry the same rayleigh or "
+                        "damping)"
+                    )
+            missing = [g for g in volumes if g not in seen]
+            if missing:
+                raise ValueError(f"material: volume groups {missing} have no [[material]] entry")
         for i, sup in enumerate(self.support):
             if sup.group not in surfaces:
                 raise ValueError(
@@ -238,13 +287,16 @@ class Scenario(Section):
         if not isinstance(mdl, BarModel):
             # SI units: a structure's bar wave speed √(E/ρ) lies between a soft elastomer's
             # (tens of m/s) and beryllium's (13 km/s); E in MPa or ρ in t/mm³ fall far outside.
-            c = math.sqrt(self.material.E / self.material.rho)
-            if not WAVE_SPEED[0] <= c <= WAVE_SPEED[1]:
-                raise ValueError(
-                    f"material: the wave speed √(E/ρ) = {c:.3g} m/s (E = {self.material.E:g}, "
-                    f"ρ = {self.material.rho:g}) is outside [{WAVE_SPEED[0]:g}, "
-                    f"{WAVE_SPEED[1]:g}] m/s: give E in Pa and ρ in kg/m³ (steel: 2.1e11, 7800)"
-                )
+            for k, (_, mat) in enumerate(self.materials):
+                c = math.sqrt(mat.E / mat.rho)
+                key = "material" if isinstance(self.material, Material) else f"material[{k}]"
+                if not WAVE_SPEED[0] <= c <= WAVE_SPEED[1]:
+                    raise ValueError(
+                        f"{key}: the wave speed √(E/ρ) = {c:.3g} m/s (E = {mat.E:g}, "
+                        f"ρ = {mat.rho:g}) is outside [{WAVE_SPEED[0]:g}, "
+                        f"{WAVE_SPEED[1]:g}] m/s: give E in Pa and ρ in kg/m³ (steel: 2.1e11, "
+                        "7800)"
+                    )
         names = [s.name for s in self.subdomain]
         twice = sorted({n for n in names if names.count(n) > 1})
         if twice:

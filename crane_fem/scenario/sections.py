@@ -25,6 +25,7 @@ __all__ = [
     "Contact",
     "DampingRatio",
     "GroupMass",
+    "GroupMaterial",
     "Initial",
     "Integrator",
     "Material",
@@ -78,6 +79,12 @@ class Material(Section):
 
         d = self.damping
         return rayleigh_from_damping(d.ratio, d.f1, d.f2)
+
+
+class GroupMaterial(Material):
+    """The material of some volume groups of a gmsh model (``[[material]]`` entries)."""
+
+    groups: Annotated[list[str], Field(min_length=1)]
 
 
 class Pulse(Section):

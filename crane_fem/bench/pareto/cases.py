@@ -59,7 +59,7 @@ def bar_specs() -> tuple[list[Spec], WallImpact, float]:
     split = load_scenario(demo("split_bar"))
     mdl = split.model
     assert isinstance(mdl, BarModel)
-    c = math.sqrt(split.material.E / split.material.rho)
+    c = math.sqrt(split.uniform_material.E / split.uniform_material.rho)
     wall = split.contact[0]
     assert isinstance(wall, Contact)
     gap = wall.gap
@@ -68,8 +68,8 @@ def bar_specs() -> tuple[list[Spec], WallImpact, float]:
         "model.length": mdl.length,
         "model.elements": mdl.elements,
         "model.area": mdl.area,
-        "material.E": split.material.E,
-        "material.rho": split.material.rho,
+        "material.E": split.uniform_material.E,
+        "material.rho": split.uniform_material.rho,
         "initial.velocity": split.initial.velocity,
         "contact.0.gap": gap,
         "time.end": split.time.end,
@@ -81,7 +81,7 @@ def bar_specs() -> tuple[list[Spec], WallImpact, float]:
         s = {**single, "integrator.scheme": "cd-lagrange", "time.dt_factor": f}
         specs.append(Spec("bar", "CD-Lagrange", f"bar_cd_dt{f:g}", bar, s, {"dt_factor": f}))
     # Penalty: k against the element stiffness EA/h; Δt = 0.9 × the limit with the springs.
-    k_el = split.material.E * mdl.area * mdl.elements / mdl.length
+    k_el = split.uniform_material.E * mdl.area * mdl.elements / mdl.length
     for r in (0.1, 1.0, 10.0, 100.0):
         s = {**single, "integrator.scheme": "penalty", "integrator.penalty": r * k_el}
         s["time.dt_factor"] = 0.9
@@ -99,7 +99,7 @@ def bar_specs() -> tuple[list[Spec], WallImpact, float]:
             s = {"coupling.method": method, "coupling.ratio": m, "output.xdmf": False}
             lab = f"split_bar_{method}_m{m}"
             specs.append(Spec("bar", method, lab, demo("split_bar"), s, {"m": m}))
-    force = split.material.rho * c * abs(split.initial.bar_velocity) * mdl.area
+    force = split.uniform_material.rho * c * abs(split.initial.bar_velocity) * mdl.area
     return specs, exact, force
 
 
