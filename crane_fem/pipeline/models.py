@@ -207,6 +207,8 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             cell_elastic=elastic,
         )
     if implicit_specs:
+        spec = next((s for s in sc.subdomain if s.name == implicit_specs[0][0]), None)
+        own = spec.rayleigh_coefficients if spec is not None else None
         implicit = create_subdomain(
             tagged,
             implicit_specs[0][0],
@@ -216,7 +218,7 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             mat.nu,
             mat.rho,
             area,
-            rayleigh,
+            own if own is not None else rayleigh,
             fixed,
             consistent_mass=sc.newmark.mass == "consistent",
             cell_density=mesh.density,

@@ -7,7 +7,8 @@ from typing import Annotated, Literal, get_args
 
 from pydantic import Field, model_validator
 
-from crane_fem.scenario.base import PositiveFloat, PositiveInt, Section
+from crane_fem.scenario.base import NonNegativePair, PositiveFloat, PositiveInt, Section
+from crane_fem.scenario.sections import DampingRatio
 
 __all__ = [
     "ADAPTIVE_KEYS",
@@ -50,6 +51,37 @@ class SubdomainSpec(Section):
     #: newmark-reduced: add the static response to each load to the basis (the quasi-static
     #: part carried exactly; false only to measure the error it avoids).
     static_vectors: bool | None = None
+    #: The damping of an implicit subdomain, instead of the material's: C = αM + βK given as
+    #: ``rayleigh = [α, β]`` or as a ratio at two frequencies. Its βK costs the implicit side
+    #: nothing, where on the explicit side it shrinks the critical step.
+    rayleigh: NonNegativePair | None = None
+    damping: DampingRatio | None = None
+
+    @model_validator(mode="after")
+    def _damping(self) -> SubdomainSpec:
+        given = "rayleigh" if self.rayleigh is not None else "damping" if self.damping else None
+        if given is None:
+            return self
+        if self.rayleigh is not None and self.damping is not None:
+            raise ValueError("give either rayleigh or damping, not both")
+        if not self.implicit:
+            raise ValueError(
+                f"{given} applies to an implicit (newmark) subdomain only: an explicit one "
+                "takes the material's damping (a βK term there shrinks its critical step)"
+            )
+        return self
+
+    @property
+    def rayleigh_coefficients(self) -> tuple[float, float] | None:
+        """(α, β) of this subdomain's own damping, or None: the material's."""
+        if self.rayleigh is not None:
+            return float(self.rayleigh[0]), float(self.rayleigh[1])
+        if self.damping is not None:
+            from crane_fem.loading import rayleigh_from_damping
+
+            d = self.damping
+            return rayleigh_from_damping(d.ratio, d.f1, d.f2)
+        return None
 
     @model_validator(mode="after")
     def _reduction(self) -> SubdomainSpec:
