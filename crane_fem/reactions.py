@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from typing import Any
 
+import dolfinx.fem
 import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
@@ -66,19 +67,24 @@ class SupportReactions:
 
     Args:
         sub: the subdomain (its ``model.fixed`` marks the clamped owned DOFs).
-        E, nu, rho: the material (ρ of the cells next to the faces).
+        E, nu, rho: the material (ρ of the cells next to the faces): constants or each
+            cell's (DG0 functions on the subdomain's mesh).
         rayleigh: (α, β) of C = α M + β K.
         gravity: the gravity vector (m/s²).
+        faces: the global parent vertex ids of each face (a gmsh model's ``[[support]]``
+            groups, in order; a vertex in two takes the first), or None: the faces found by
+            :func:`face_labels` (a crane's four end-carriage ends).
     """
 
     def __init__(
         self,
         sub: Subdomain,
-        E: float,
-        nu: float,
-        rho: float,
+        E: float | dolfinx.fem.Function,
+        nu: float | dolfinx.fem.Function,
+        rho: float | dolfinx.fem.Function,
         rayleigh: tuple[float, float],
         gravity: FloatArray | list[float],
+        faces: list[npt.NDArray[np.int64]] | None = None,
     ) -> None:
         V, bs = sub.V, sub.bs
         self.subdomain = sub.name
@@ -102,7 +108,18 @@ class SupportReactions:
         self._r = self.K.createVecLeft()
         xyz = V.tabulate_dof_coordinates()[: sub.n_owned_blocks]
         blocks = self.rows[::bs] // bs if bs > 1 else self.rows
-        labels, self.centres = face_labels(xyz[blocks], self.comm)
+        if faces is None:
+            labels, self.centres = face_labels(xyz[blocks], self.comm)
+        else:
+            vertex = sub.parent_vertex[blocks]
+            labels = np.full(blocks.size, len(faces), dtype=np.int64)
+            for k in reversed(range(len(faces))):
+                labels[np.isin(vertex, faces[k])] = k
+            sums = np.zeros((len(faces), 4))
+            np.add.at(sums[:, :3], labels, xyz[blocks])
+            np.add.at(sums[:, 3], labels, 1.0)
+            sums = self.comm.allreduce(sums, op=MPI.SUM)
+            self.centres = sums[:, :3] / np.maximum(sums[:, 3:], 1.0)
         self.n_faces = self.centres.shape[0]
         self.labels = labels
         self.peak = np.zeros(self.n_faces)

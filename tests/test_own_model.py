@@ -201,6 +201,10 @@ def test_materials_and_masses_per_group(shared_tmp: Path) -> None:
     s1, _ = run_cli(shared_tmp, with_materials(1e8, 3000.0, 0.5), "per_group")
     weight = (3000.0 * 0.06**3 + 0.5) * G
     assert s1["preload"]["contact_forces_N"]["feet"] == pytest.approx(weight, rel=1e-6)
+    # The support (the slab's underside) carries the whole weight at t = 0 (statics).
+    total = weight + 1000.0 * 0.32 * 0.12 * 0.03 * G
+    assert list(s1["supports"]) == ["1"]
+    assert s1["supports"]["1"]["initial_force_N"][2] == pytest.approx(total, rel=1e-6)
     s2, _ = run_cli(shared_tmp, with_materials(1e9, 1000.0, 0.0), "stiff_block")
     s0, _ = run_cli(shared_tmp, base, "uniform")
     assert s2["dt_critical"] < 0.9 * s0["dt_critical"]

@@ -113,7 +113,7 @@ def create_monitors(sim: Simulation, out: Path) -> Monitors:
         EnergyGrowth(sim),
         ContactPeaksMonitor(sim),
         BridgeStress(sim) if crane else None,
-        create_supports(sim) if crane else None,
+        create_supports(sim) if crane or sim.scenario.support else None,
         points,
         create_wheel_slip(sim) or create_contact_slip(sim),
     )

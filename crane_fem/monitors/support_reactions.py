@@ -11,6 +11,7 @@ from crane_fem.coupling import MacroRecord
 from crane_fem.pipeline import Simulation
 from crane_fem.points import GroundAcceleration
 from crane_fem.reactions import SupportReactions
+from crane_fem.subdomains import cell_function
 
 __all__ = ["SupportsMonitor", "create_supports"]
 
@@ -75,11 +76,23 @@ def create_supports(sim: Simulation) -> SupportsMonitor | None:
         if sub is None or sub.bs != 3:
             continue
         if sim.mesh.comm.allreduce(int(np.count_nonzero(sub.model.fixed)), op=MPI.SUM):
-            mat = sc.uniform_material
+            mat = sc.materials[0][1]
+            E: Any = mat.E
+            nu: Any = mat.nu
+            rho: Any = mat.rho
+            cells = sim.mesh.materials
+            if cells is not None:  # per-group materials: each cell's own
+                E, nu, rho = (
+                    cell_function(sub.submesh, a[sub.parent_cells])
+                    for a in (cells.E, cells.nu, cells.rho)
+                )
+            rayleigh = sub.model.alpha, sub.model.beta
+            tagged = sim.mesh.tagged
+            # A gmsh model's faces are its [[support]] groups; a crane's, its four ends.
+            faces = [
+                tagged.global_vertices(tagged.facet_vertices(s.group)) for s in sc.support
+            ] or None
             return SupportsMonitor(
-                sim,
-                SupportReactions(
-                    sub, mat.E, mat.nu, mat.rho, mat.rayleigh_coefficients, sc.loading.gravity
-                ),
+                sim, SupportReactions(sub, E, nu, rho, rayleigh, sc.loading.gravity, faces)
             )
     return None

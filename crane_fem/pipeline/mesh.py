@@ -29,7 +29,14 @@ from crane_fem.scenario import (
     SurfaceContact,
 )
 
-__all__ = ["CellMaterial", "MeshStage", "PointsOnSurface", "build_mesh", "create_tagged_mesh"]
+__all__ = [
+    "CellMaterial",
+    "MeshStage",
+    "PointsOnSurface",
+    "build_mesh",
+    "create_tagged_mesh",
+    "support_groups",
+]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -182,25 +189,30 @@ def _surface_contacts(sc: Scenario, tagged: TaggedMesh) -> tuple[PointsOnSurface
     return tuple(out)
 
 
+def support_groups(sc: Scenario) -> list[str]:
+    """The facet groups clamped to the ground: a gmsh model's ``[[support]]`` entries, and
+    each built-in model's own (the crane's end-carriage faces, the box beam's root face, the
+    bar's right end with ``model.clamp = "right"``; a block has none)."""
+    mdl = sc.model
+    if isinstance(mdl, GmshModel):
+        return [s.group for s in sc.support]
+    if isinstance(mdl, CraneModel):
+        return [groups.CRANE_SURFACES[0]]  # "clamped"
+    if isinstance(mdl, BoxBeamModel):
+        return [groups.BEAM_CLAMPED]
+    if isinstance(mdl, BarModel) and mdl.clamp == "right":
+        return [groups.BAR_RIGHT_END]
+    return []
+
+
 def build_mesh(sc: Scenario, comm: MPI.Comm) -> MeshStage:
     """Mesh the scenario's model, or read its mesh file (collective)."""
     made = create_tagged_mesh(comm, sc)
     crane = made if isinstance(made, CraneMesh) else None
     tagged = made.tagged if isinstance(made, CraneMesh) else made
     mdl = sc.model
-    if isinstance(mdl, CraneModel):
-        clamp_local = tagged.facet_vertices("clamped")
-    elif isinstance(mdl, GmshModel):
-        parts = [tagged.facet_vertices(s.group) for s in sc.support]
-        clamp_local = np.unique(np.concatenate([np.zeros(0, dtype=np.int32), *parts]))
-    elif isinstance(mdl, BoxBeamModel):
-        clamp_local = tagged.facet_vertices(groups.BEAM_CLAMPED)
-    elif isinstance(mdl, BlockModel):
-        clamp_local = np.zeros(0, dtype=np.int32)
-    elif mdl.clamp == "right":
-        clamp_local = tagged.facet_vertices(groups.BAR_RIGHT_END)
-    else:
-        clamp_local = np.zeros(0, dtype=np.int32)
+    parts = [tagged.facet_vertices(g) for g in support_groups(sc)]
+    clamp_local = np.unique(np.concatenate([np.zeros(0, dtype=np.int32), *parts]))
     material = _cell_material(sc, tagged) if isinstance(mdl, CraneModel | GmshModel) else None
     density = material.rho if material is not None else None
     # Per-cell E and ν only where they vary (a gmsh model's [[material]] entries).
