@@ -20,7 +20,12 @@ class VonMises:
     Collective over the mesh communicator (:meth:`evaluate` scatters the ghosts).
     """
 
-    def __init__(self, V: dolfinx.fem.FunctionSpace, E: float, nu: float) -> None:
+    def __init__(
+        self,
+        V: dolfinx.fem.FunctionSpace,
+        E: float | dolfinx.fem.Function,
+        nu: float | dolfinx.fem.Function,
+    ) -> None:
         mu = E / (2.0 * (1.0 + nu))
         lmbda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
         self.u = dolfinx.fem.Function(V, name="displacement")

@@ -148,7 +148,8 @@ class XDMFSeries:
     ghosts before they are read at the owned mesh nodes; every time must give every name.
     Optional cellwise (DG0) fields: ``constants`` are written once and referenced at every
     time (e.g. the subdomain tag, so ParaView can colour by it at any time), and
-    ``von_mises = (E, ν)`` adds the von Mises stress (Pa) of the ``displacement`` field
+    ``von_mises = (E, ν)`` (constants, or each cell's as DG0 functions on ``V``'s mesh) adds
+    the von Mises stress (Pa) of the ``displacement`` field
     (linear elasticity, evaluated per cell; P1 strains are constant in a tetrahedron).
     ``append``: continue the series already in ``path`` (a restarted run, after
     :func:`truncate_xdmf`) rather than start a new file.
@@ -164,7 +165,7 @@ class XDMFSeries:
         V: dolfinx.fem.FunctionSpace,
         names: list[str],
         constants: dict[str, float] | None = None,
-        von_mises: tuple[float, float] | None = None,
+        von_mises: tuple[Any, Any] | None = None,
         append: bool = False,
     ) -> None:
         mesh = V.mesh
