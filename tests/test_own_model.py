@@ -205,6 +205,12 @@ def test_materials_and_masses_per_group(shared_tmp: Path) -> None:
     total = weight + 1000.0 * 0.32 * 0.12 * 0.03 * G
     assert list(s1["supports"]) == ["1"]
     assert s1["supports"]["1"]["initial_force_N"][2] == pytest.approx(total, rel=1e-6)
+    # Each volume group's peak von Mises stress: the block's, near its base, is of the order
+    # of its weight over its base, ρ_eff g H (the bonded base and the corners concentrate
+    # it, Poisson's ratio relieves the uniaxial value: within a factor 2 either way).
+    mean = weight / 0.06**2
+    block = s1["peak_von_mises_by_group"]["block"]["peak_Pa"]
+    assert 0.5 * mean < block < 2.0 * mean, (block, mean)
     s2, _ = run_cli(shared_tmp, with_materials(1e9, 1000.0, 0.0), "stiff_block")
     s0, _ = run_cli(shared_tmp, base, "uniform")
     assert s2["dt_critical"] < 0.9 * s0["dt_critical"]

@@ -14,6 +14,7 @@ from crane_fem.monitors.bridge_stress import BridgeStress
 from crane_fem.monitors.contact_peaks import ContactPeaksMonitor
 from crane_fem.monitors.contact_slip import ContactSlipMonitor, create_contact_slip
 from crane_fem.monitors.energy_growth import EnergyGrowth
+from crane_fem.monitors.group_stress import GroupStress, create_group_stress
 from crane_fem.monitors.measured_points import MeasuredPoints, create_measured_points
 from crane_fem.monitors.protocol import Monitor
 from crane_fem.monitors.support_reactions import SupportsMonitor, create_supports
@@ -31,7 +32,7 @@ class Monitors:
 
     growth: EnergyGrowth
     peaks: ContactPeaksMonitor
-    stress: BridgeStress | None = None
+    stress: BridgeStress | GroupStress | None = None
     supports: SupportsMonitor | None = None
     points: MeasuredPoints | None = None
     slip: WheelSlipMonitor | ContactSlipMonitor | None = None
@@ -105,14 +106,15 @@ class Monitors:
 def create_monitors(sim: Simulation, out: Path) -> Monitors:
     """The monitors the scene calls for (collective): the divergence guard and the contact
     peaks always; for a crane the bridge stress, the support reactions and the wheels' slip,
-    for a gmsh model its contacts' slip;
+    for a gmsh model its volume groups' stresses, its supports' reactions and its contacts'
+    slip;
     the measured points where the scenario or the crane names some (spectra to ``out``)."""
     crane = sim.mesh.crane is not None
     points = create_measured_points(sim, out)
     return Monitors(
         EnergyGrowth(sim),
         ContactPeaksMonitor(sim),
-        BridgeStress(sim) if crane else None,
+        BridgeStress(sim) if crane else create_group_stress(sim),
         create_supports(sim) if crane or sim.scenario.support else None,
         points,
         create_wheel_slip(sim) or create_contact_slip(sim),

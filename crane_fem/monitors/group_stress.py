@@ -1,0 +1,120 @@
+"""The peak von Mises stress of each volume group of a gmsh model as a macro-step monitor (the
+general case of the crane's bridge stress: a part an engineer signs off)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from crane_fem.coupling import MacroRecord
+from crane_fem.pipeline import Simulation
+from crane_fem.scenario import GmshModel
+from crane_fem.stress import VonMises
+from crane_fem.subdomains import Subdomain, cell_function
+
+__all__ = ["GroupStress", "create_group_stress"]
+
+
+class GroupStress:
+    """Per volume group, the largest von Mises stress over its cells (each cell's E, ν), on
+    whichever side holds them, every ``output.stress_every`` sampling intervals and at the
+    last (collective). History columns ``<group>_von_mises_max``: the value at the instants
+    it is evaluated, NaN at the rows between."""
+
+    def __init__(self, sim: Simulation) -> None:
+        md = sim.models
+        tagged = sim.mesh.tagged
+        self.groups = list(tagged.cell_groups)
+        self.every = sim.scenario.output.stress_every * md.sample_steps
+        n = tagged.mesh.topology.index_map(tagged.mesh.topology.dim)
+        group_of = np.full(n.size_local + n.num_ghosts, -1, dtype=np.int64)
+        for k, name in enumerate(self.groups):
+            group_of[
+                tagged.cell_tags.indices[tagged.cell_tags.values == tagged.cell_groups[name]]
+            ] = k
+        mat, cells = sim.scenario.materials[0][1], sim.mesh.materials
+        self.sides: list[tuple[str, VonMises, np.ndarray, np.ndarray]] = []
+        for side, sub in (("explicit", md.explicit), ("implicit", md.implicit)):
+            if sub is None:
+                continue
+            vm = VonMises(sub.V, *self._elastic(sub, mat.E, mat.nu, cells))
+            own = sub.parent_cells[: vm.n_cells]
+            labels = group_of[own]
+            sel = np.flatnonzero(labels >= 0).astype(np.int32)
+            self.sides.append((side, vm, sel, labels[sel]))
+        self.comm = sim.mesh.comm
+        n_g = len(self.groups)
+        self.peak = np.zeros(n_g)
+        self.t_peak = np.zeros(n_g)
+        self.location = np.zeros((n_g, 3))
+        self.last = np.full(n_g, math.nan)
+
+    @staticmethod
+    def _elastic(sub: Subdomain, E: float, nu: float, cells: Any) -> tuple[Any, Any]:
+        if cells is None:
+            return E, nu
+        return (
+            cell_function(sub.submesh, cells.E[sub.parent_cells]),
+            cell_function(sub.submesh, cells.nu[sub.parent_cells]),
+        )
+
+    @property
+    def columns(self) -> list[str]:
+        return [f"{g}_von_mises_max" for g in self.groups]
+
+    def history_row(self) -> dict[str, float]:
+        return dict(zip(self.columns, self.last.tolist(), strict=True))
+
+    def update(self, rec: MacroRecord, last: bool) -> None:
+        if not (rec.micro_step % self.every == 0 or last):
+            self.last[:] = math.nan
+            return
+        now = np.zeros(len(self.groups))
+        where = np.zeros((len(self.groups), 3))
+        for side, vm, cells, labels in self.sides:
+            u = rec.explicit_u if side == "explicit" else rec.implicit_u
+            assert u is not None
+            values, at = vm.peaks_by(u, cells, labels, len(self.groups), self.comm)
+            better = values > now
+            now[better], where[better] = values[better], at[better]
+        self.last = now
+        up = now > self.peak
+        self.peak[up], self.t_peak[up], self.location[up] = now[up], rec.t, where[up]
+
+    def summarize(self, summary: dict[str, Any]) -> None:
+        """``peak_von_mises_by_group``: per volume group its peak (Pa), when (s) and where
+        (m)."""
+        summary["peak_von_mises_by_group"] = {
+            g: {
+                "peak_Pa": float(self.peak[k]),
+                "time_s": float(self.t_peak[k]),
+                "location_m": self.location[k].tolist(),
+            }
+            for k, g in enumerate(self.groups)
+        }
+
+    def state_dict(self) -> dict[str, Any]:
+        return {
+            "peak": self.peak.copy(),
+            "t_peak": self.t_peak.copy(),
+            "location": self.location.copy(),
+            "last": self.last.copy(),
+        }
+
+    def load_state_dict(self, state: dict[str, Any]) -> None:
+        self.peak = np.asarray(state["peak"], dtype=np.float64)
+        self.t_peak = np.asarray(state["t_peak"], dtype=np.float64)
+        self.location = np.asarray(state["location"], dtype=np.float64).reshape(-1, 3)
+        self.last = np.asarray(state["last"], dtype=np.float64)
+
+    def destroy(self) -> None:
+        pass
+
+
+def create_group_stress(sim: Simulation) -> GroupStress | None:
+    """The group stresses of a gmsh model (None for the built-in models)."""
+    if not isinstance(sim.scenario.model, GmshModel):
+        return None
+    return GroupStress(sim)
