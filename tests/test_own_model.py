@@ -211,6 +211,14 @@ def test_materials_and_masses_per_group(shared_tmp: Path) -> None:
     mean = weight / 0.06**2
     block = s1["peak_von_mises_by_group"]["block"]["peak_Pa"]
     assert 0.5 * mean < block < 2.0 * mean, (block, mean)
+    # `crane-fem modes` on the model, its touching contact points tied: no rigid mode (the
+    # block held by its feet), and the support's static reaction is the whole weight.
+    toml = shared_tmp / "per_group.toml"
+    assert main(["modes", str(toml), "--n", "3", "--out", str(shared_tmp / "modes")]) == 0
+    report = json.loads((shared_tmp / "modes" / "modes.json").read_text(encoding="utf-8"))
+    assert report["modes"][0]["frequency_hz"] > 10.0
+    static = report["response_spectrum"]["supports"]["1"]["static_N"]
+    assert static[2] == pytest.approx(total, rel=1e-6)
     s2, _ = run_cli(shared_tmp, with_materials(1e9, 1000.0, 0.0), "stiff_block")
     s0, _ = run_cli(shared_tmp, base, "uniform")
     assert s2["dt_critical"] < 0.9 * s0["dt_critical"]

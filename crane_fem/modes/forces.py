@@ -9,6 +9,7 @@ import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 from petsc4py import PETSc
+from scipy.spatial import cKDTree
 
 from crane_fem.errors import CraneFemError
 from crane_fem.modes.operators import ClosedStructure
@@ -47,7 +48,27 @@ class ForceRecovery:
         self.st = st
         comm = st.comm
         xyz = st.V.tabulate_dof_coordinates()
-        labels, self.centres = face_labels(xyz[st.clamped // 3], comm)
+        if st.faces:  # a gmsh model's [[support]] groups (a vertex in two: the first)
+            vertex = st.block_vertex[st.clamped // 3]
+            labels = np.full(vertex.size, len(st.faces), dtype=np.int64)
+            for k in reversed(range(len(st.faces))):
+                labels[np.isin(vertex, st.faces[k])] = k
+            # A P2 edge DOF (no vertex) takes the face of the nearest clamped vertex.
+            pos = xyz[st.clamped // 3]
+            known = labels < len(st.faces)
+            got = comm.allgather((pos[known], labels[known]))
+            ref_xyz = np.concatenate([g[0] for g in got])
+            ref_lab = np.concatenate([g[1] for g in got])
+            if np.any(~known) and ref_lab.size:
+                _, near = cKDTree(ref_xyz).query(pos[~known])
+                labels[~known] = ref_lab[near]
+            sums = np.zeros((len(st.faces), 4))
+            np.add.at(sums[:, :3], labels, xyz[st.clamped // 3])
+            np.add.at(sums[:, 3], labels, 1.0)
+            sums = comm.allreduce(sums, op=MPI.SUM)
+            self.centres = sums[:, :3] / np.maximum(sums[:, 3:], 1.0)
+        else:
+            labels, self.centres = face_labels(xyz[st.clamped // 3], comm)
         self.labels = labels
         self.n_faces = int(self.centres.shape[0])
         self.n_wheels = int(st.wheel.max(initial=0))

@@ -65,6 +65,8 @@ class ClosedStructure:
         gravity_load: owned free-DOF body load of gravity, ∫ ρ g·w dx (N).
         gravity_clamped: the same load on the owned clamped DOFs (N).
         mass_total: ∫ ρ dx over the whole mesh (kg, global).
+        faces: the global vertex ids of each support face (a gmsh model's ``[[support]]``
+            groups), or empty: the faces found by position (crane_fem.reactions.face_labels).
     """
 
     comm: MPI.Comm
@@ -81,6 +83,7 @@ class ClosedStructure:
     gravity_load: FloatArray
     gravity_clamped: FloatArray
     mass_total: float
+    faces: tuple[IntArray, ...] = ()
 
     @property
     def n_free(self) -> int:
@@ -161,6 +164,29 @@ def _add_ties(K: PETSc.Mat, V: dolfinx.fem.FunctionSpace, pairs: IntArray, k_p: 
     K.assemble()
 
 
+def _add_bonded(K: PETSc.Mat, V: dolfinx.fem.FunctionSpace, mesh: MeshStage, k_p: float) -> None:
+    """A gmsh model's contact points that touch their surface at t = 0 tied to it in each
+    component, k_p (w wᵀ ⊗ I₃) with w = [1, −ξ_a, −ξ_b, −ξ_c] (the static preload's springs,
+    crane_fem.preload.bonded); each rank adds the points whose vertex block it owns
+    (collective: assembles)."""
+    from crane_fem.pipeline.models import bonded_points
+
+    pts = bonded_points(mesh)
+    x = mesh.tagged.mesh.geometry.x
+    size = float(np.max(np.ptp(x, axis=0), initial=0.0)) if x.size else 0.0
+    touching = pts.gap <= 1e-9 * mesh.comm.allreduce(size, op=MPI.MAX)
+    block_of = _global_blocks(V, pts.ids.ravel())
+    lo, hi = V.dofmap.index_map.local_range
+    K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)  # type: ignore[arg-type]
+    for ids, w in zip(pts.ids[touching].tolist(), pts.weights[touching], strict=True):
+        if not lo <= block_of[ids[0]] < hi:
+            continue
+        idx = [3 * block_of[v] + c for v in ids for c in range(3)]
+        ke = k_p * np.kron(np.outer(w, w), np.eye(3))
+        K.setValues(idx, idx, ke.ravel().tolist(), addv=True)  # addv=True: ADD_VALUES
+    K.assemble()
+
+
 def assemble_closed_structure(
     mesh: MeshStage, E: float, nu: float, rho: float, gravity: FloatArray, degree: int = 1
 ) -> ClosedStructure:
@@ -229,6 +255,12 @@ def assemble_closed_structure(
         diag.destroy()
         _add_ties(K_all, V, pairs, k_p)
 
+    if mesh.surface_contacts:
+        diag = K_all.getDiagonal()
+        k_p = comm.allreduce(float(np.max(diag.array_r, initial=0.0)), op=MPI.MAX)
+        diag.destroy()
+        _add_bonded(K_all, V, mesh, k_p)
+
     imap = V.dofmap.index_map
     n_own = imap.size_local
     fixed_blocks = _clamped_blocks(V, mesh.fixed_vertices)
@@ -260,4 +292,5 @@ def assemble_closed_structure(
         gravity_load=f_own[free],
         gravity_clamped=f_own[clamped],
         mass_total=float(mass_total),
+        faces=mesh.support_faces,
     )

@@ -154,7 +154,8 @@ def report_dict(rep: ModesReport) -> dict[str, Any]:
         modes.append(mode)
     out: dict[str, Any] = {
         "scenario": rep.scenario,
-        "contacts": "closed: wheel/rail pairs tied in x, y, z by k_p; flanges open",
+        "contacts": "closed: wheel/rail pairs (a gmsh model's touching contact points, on "
+        "their triangles) tied in x, y, z by k_p; flanges and open points left open",
         "degree": rep.degree,
         "mass_matrix": "consistent",
         "shapes": "mass-normalised (phi^T M phi = 1), modes.xdmf",

@@ -87,11 +87,8 @@ def create_supports(sim: Simulation) -> SupportsMonitor | None:
                     for a in (cells.E, cells.nu, cells.rho)
                 )
             rayleigh = sub.model.alpha, sub.model.beta
-            tagged = sim.mesh.tagged
             # A gmsh model's faces are its [[support]] groups; a crane's, its four ends.
-            faces = [
-                tagged.global_vertices(tagged.facet_vertices(s.group)) for s in sc.support
-            ] or None
+            faces = list(sim.mesh.support_faces) or None
             return SupportsMonitor(
                 sim, SupportReactions(sub, E, nu, rho, rayleigh, sc.loading.gravity, faces)
             )

@@ -76,6 +76,9 @@ class MeshStage:
         surface_contacts: a gmsh model's node-to-surface contacts, in the scenario's order.
         materials: E, ν, ρ of every local parent cell where they vary by group (a gmsh
             model's ``[[material]]`` entries), else None (``density`` holds ρ).
+        support_faces: a gmsh model's supports: the global vertex ids of each ``[[support]]``
+            group, in order (its reactions are reported per group); empty for the built-in
+            models (the crane's clamped ends are told apart by position).
     """
 
     comm: MPI.Comm
@@ -85,6 +88,7 @@ class MeshStage:
     density: FloatArray | None
     surface_contacts: tuple[PointsOnSurface, ...] = ()
     materials: CellMaterial | None = None
+    support_faces: tuple[IntArray, ...] = ()
 
 
 def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh | CraneMesh:
@@ -218,6 +222,10 @@ def build_mesh(sc: Scenario, comm: MPI.Comm) -> MeshStage:
     # Per-cell E and ν only where they vary (a gmsh model's [[material]] entries).
     cells = material if material is not None and len(sc.materials) > 1 else None
     surfaces = _surface_contacts(sc, tagged) if isinstance(mdl, GmshModel) else ()
+    faces = tuple(
+        tagged.global_vertices(tagged.facet_vertices(s.group))
+        for s in (sc.support if isinstance(mdl, GmshModel) else [])
+    )
     return MeshStage(
-        comm, tagged, crane, tagged.global_vertices(clamp_local), density, surfaces, cells
+        comm, tagged, crane, tagged.global_vertices(clamp_local), density, surfaces, cells, faces
     )
