@@ -441,21 +441,32 @@ class SlidingContacts:
             out.append(d)
         return np.concatenate(out) if out else np.zeros((0, 3))
 
-    def drift(self, x: FloatArray) -> float:
+    def drift(self, x: FloatArray, projected: dict[int, Pairing] | None = None) -> float:
         """The largest tangential drift of a point over its triangle since its pairing (m)
         at the current coordinates ``x`` of :attr:`ids`; +inf when a point that acts on a
-        vertex has another allowed vertex nearer. Not collective."""
+        vertex has another allowed vertex nearer. ``projected``: the families of such points
+        already projected at ``x`` (:meth:`_vertex_projections`), by index. Not collective."""
         ref = self.offsets if self.offsets is not None else 0.0
         d = self._tangential(x) - ref
         worst = float(np.max(np.linalg.norm(d, axis=1), initial=0.0))
-        for f, pairing, sp, ss in zip(
-            self.families, self.pairings, self._slot_p, self._slot_s, strict=True
-        ):
-            if f.vertices is not None:
-                now = self._project(f, x[sp], x[ss])
-                if np.any(now.triangle != pairing.triangle) or np.any(now.xi != pairing.xi):
-                    worst = np.inf
+        if projected is None:
+            projected = self._vertex_projections(x)
+        for j, now in projected.items():
+            pairing = self.pairings[j]
+            if np.any(now.triangle != pairing.triangle) or np.any(now.xi != pairing.xi):
+                worst = np.inf
         return worst
+
+    def _vertex_projections(self, x: FloatArray) -> dict[int, Pairing]:
+        """The families whose points act on a vertex (``Family.vertices``), projected at the
+        coordinates ``x``, by index (not collective)."""
+        return {
+            j: self._project(f, x[sp], x[ss])
+            for j, (f, sp, ss) in enumerate(
+                zip(self.families, self._slot_p, self._slot_s, strict=True)
+            )
+            if f.vertices is not None
+        }
 
     def _gaps(self, pairings: list[Pairing], x: FloatArray) -> FloatArray:
         """Each point's distance n·(x_p − Σ ξ_i x_i) + c_p for ``pairings`` at the coordinates
@@ -481,12 +492,14 @@ class SlidingContacts:
         x = self._current(zone.u)
         if self.offsets is None:  # the first call: the start's offsets are no slide
             self.offsets = self._tangential(x)
-        drift = self.drift(x)
+        # The vertex families' projections serve both the drift and the new pairing.
+        projected = self._vertex_projections(x)
+        drift = self.drift(x, projected)
         if not self.sliding and drift <= self.slide_tol:
             return False
         if not self.sliding:
             self.sliding, self.sliding_since = True, float(t)
-        fresh = self._pair(x, t)
+        fresh = self._pair(x, t, projected)
         exact = self._gaps(fresh, x)
         # A point projecting onto no triangle (an overhang across) keeps its rows' distance
         # until they are paired again.
@@ -507,14 +520,18 @@ class SlidingContacts:
             zone.set_contact_gaps(self.g0)
         return repair
 
-    def _pair(self, x: FloatArray, t: float) -> list[Pairing]:
-        """Every point's projection on its deformed surface at the coordinates ``x`` (not
-        collective: every rank holds the same ``x``)."""
+    def _pair(
+        self, x: FloatArray, t: float, projected: dict[int, Pairing] | None = None
+    ) -> list[Pairing]:
+        """Every point's projection on its deformed surface at the coordinates ``x`` (those
+        of ``projected``'s families taken from it; not collective: every rank holds the same
+        ``x``)."""
         pairings = []
+        done = projected or {}
         for j, (f, sp, ss) in enumerate(
             zip(self.families, self._slot_p, self._slot_s, strict=True)
         ):
-            pairing = self._project(f, x[sp], x[ss])
+            pairing = done[j] if j in done else self._project(f, x[sp], x[ss])
             self._check_paired(j, pairing, x[sp], t)
             pairings.append(pairing)
         return pairings
