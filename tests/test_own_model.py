@@ -146,6 +146,7 @@ def test_block_on_a_shaken_slab_slides_at_A_minus_mu_g(shared_tmp: Path, ratio: 
         assert abs(slip) < 0.01 * A / 2.0 * T**2
 
 
+@pytest.mark.serial  # its two-rank behaviour is the shaken slab's (the same model and path)
 def test_block_slides_over_ten_slab_elements_and_stops_where_coulomb_says(
     shared_tmp: Path,
 ) -> None:

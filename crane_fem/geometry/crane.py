@@ -24,6 +24,7 @@ from crane_fem.geometry.crane_build import build_crane_model
 from crane_fem.geometry.crane_file import mesh_sidecar, read_mesh_sidecar, write_crane_mesh
 from crane_fem.geometry.crane_pairs import CraneMeshInfo, FlangePairs, mesh_info
 from crane_fem.geometry.crane_parameters import CraneGeometry
+from crane_fem.geometry.gmsh_file import distribute_gmsh_model
 from crane_fem.geometry.groups import CRANE_FLANGE_SURFACES
 from crane_fem.geometry.tagged import TaggedMesh
 
@@ -126,17 +127,7 @@ def create_crane_mesh(
         else:
             gmsh.model.add("crane")
             info = build_crane_model(geo)
-    error = comm.bcast(error, root=0)
-    if error is not None:
-        if comm.rank == 0:
-            gmsh.finalize()
-        raise ScenarioError(error)
-    partitioner = dolfinx.mesh.create_cell_partitioner(  # type: ignore[call-arg]
-        dolfinx.mesh.GhostMode.shared_facet, 2
-    )
-    data = dolfinx.io.gmsh.model_to_mesh(gmsh.model, comm, 0, gdim=3, partitioner=partitioner)
-    if comm.rank == 0:
-        gmsh.finalize()
+    data = distribute_gmsh_model(comm, error)
     info = comm.bcast(info, root=0)
     assert info is not None and data.cell_tags is not None and data.facet_tags is not None
     # gmsh node tags are 1-based input indices (dolfinx.io.gmsh.extract_geometry).

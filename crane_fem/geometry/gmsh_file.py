@@ -15,7 +15,7 @@ from mpi4py import MPI
 from crane_fem.errors import ScenarioError
 from crane_fem.geometry.tagged import TaggedMesh
 
-__all__ = ["PhysicalNames", "create_gmsh_mesh", "read_physical_names"]
+__all__ = ["PhysicalNames", "create_gmsh_mesh", "distribute_gmsh_model", "read_physical_names"]
 
 
 @dataclass(frozen=True)
@@ -75,6 +75,29 @@ def read_physical_names(path: str | Path) -> PhysicalNames:
     return PhysicalNames(found[3], found[2])
 
 
+def distribute_gmsh_model(comm: MPI.Comm, error: str | None) -> dolfinx.io.gmsh.MeshData:
+    """The gmsh model rank 0 holds, distributed with ghost cells across shared facets (the
+    contact and interface code reads its neighbours' cells), then gmsh finalized on rank 0
+    (collective). ``error``: rank 0's refusal of the model, raised on every rank instead.
+
+    Raises:
+        ScenarioError: rank 0's ``error``, on every rank.
+    """
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        if comm.rank == 0:
+            gmsh.finalize()
+        raise ScenarioError(error)
+    partitioner = dolfinx.mesh.create_cell_partitioner(  # type: ignore[call-arg]
+        dolfinx.mesh.GhostMode.shared_facet, 2
+    )
+    try:
+        return dolfinx.io.gmsh.model_to_mesh(gmsh.model, comm, 0, gdim=3, partitioner=partitioner)
+    finally:
+        if comm.rank == 0:
+            gmsh.finalize()
+
+
 def create_gmsh_mesh(comm: MPI.Comm, path: str | Path) -> TaggedMesh:
     """Read a user's ``.msh`` on rank 0 and distribute it with ghost cells across shared
     facets (contact and interface code reads its neighbours' cells); cell and facet groups
@@ -100,19 +123,7 @@ def create_gmsh_mesh(comm: MPI.Comm, path: str | Path) -> TaggedMesh:
                 )
         except Exception as exc:  # gmsh raises bare Exception on a corrupt file
             error = f"model.mesh: gmsh cannot read {path}: {exc}"
-    error = comm.bcast(error, root=0)
-    if error is not None:
-        if comm.rank == 0:
-            gmsh.finalize()
-        raise ScenarioError(error)
-    partitioner = dolfinx.mesh.create_cell_partitioner(  # type: ignore[call-arg]
-        dolfinx.mesh.GhostMode.shared_facet, 2
-    )
-    try:
-        data = dolfinx.io.gmsh.model_to_mesh(gmsh.model, comm, 0, gdim=3, partitioner=partitioner)
-    finally:
-        if comm.rank == 0:
-            gmsh.finalize()
+    data = distribute_gmsh_model(comm, error)
     assert data.cell_tags is not None
     facet_tags = data.facet_tags
     if facet_tags is None:  # no surface group: an empty tag set
