@@ -169,12 +169,10 @@ def _add_bonded(K: PETSc.Mat, V: dolfinx.fem.FunctionSpace, mesh: MeshStage, k_p
     component, k_p (w wᵀ ⊗ I₃) with w = [1, −ξ_a, −ξ_b, −ξ_c] (the static preload's springs,
     crane_fem.preload.bonded); each rank adds the points whose vertex block it owns
     (collective: assembles)."""
-    from crane_fem.pipeline.models import bonded_points
+    from crane_fem.pipeline.models import TOUCHING, bonded_points
 
     pts = bonded_points(mesh)
-    x = mesh.tagged.mesh.geometry.x
-    size = float(np.max(np.ptp(x, axis=0), initial=0.0)) if x.size else 0.0
-    touching = pts.gap <= 1e-9 * mesh.comm.allreduce(size, op=MPI.MAX)
+    touching = pts.gap <= TOUCHING * mesh.extent()
     block_of = _global_blocks(V, pts.ids.ravel())
     lo, hi = V.dofmap.index_map.local_range
     K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)  # type: ignore[arg-type]

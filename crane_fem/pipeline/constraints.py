@@ -359,15 +359,12 @@ def _gmsh_contacts(
                 mu=c.friction,
             )
         )
-    x = mesh.tagged.mesh.geometry.x
-    size = float(np.max(np.ptp(x, axis=0), initial=0.0)) if x.size else 0.0
-    size = mesh.comm.allreduce(size, op=MPI.MAX)
     # A point held closed drifts by round-off (ε |u|): 1e-12 of the model absorbs it.
     return SlidingContacts(
         sub,
         families,
         names,
-        1e-12 * size,
+        1e-12 * mesh.extent(),
         point_name="contact point",
         surface_key="[[contact]] points/surface",
     )

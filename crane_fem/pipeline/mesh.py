@@ -90,6 +90,16 @@ class MeshStage:
     materials: CellMaterial | None = None
     support_faces: tuple[IntArray, ...] = ()
 
+    def extent(self) -> float:
+        """The largest side of the whole mesh's bounding box (m; collective: the same on
+        every rank, whatever the partition)."""
+        x = self.tagged.mesh.geometry.x
+        lo = x.min(axis=0, initial=np.inf)
+        hi = x.max(axis=0, initial=-np.inf)
+        lo = np.array([self.comm.allreduce(float(v), op=MPI.MIN) for v in lo])
+        hi = np.array([self.comm.allreduce(float(v), op=MPI.MAX) for v in hi])
+        return float(np.max(hi - lo))
+
 
 def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh | CraneMesh:
     """The parent mesh of the scenario with its named groups (collective)."""

@@ -7,7 +7,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from mpi4py import MPI
 
 from crane_fem.errors import ScenarioError
 from crane_fem.pipeline.mesh import MeshStage
@@ -16,7 +15,7 @@ from crane_fem.scenario import BarModel, BlockModel, GmshModel, Scenario
 from crane_fem.stability import critical_time_step, max_frequency
 from crane_fem.subdomains import Subdomain, create_subdomain
 
-__all__ = ["ModelStage", "build_models"]
+__all__ = ["TOUCHING", "ModelStage", "bonded_points", "build_models"]
 
 
 @dataclass(frozen=True)
@@ -113,6 +112,12 @@ def sample_steps(sc: Scenario, dt: float, unit: int) -> int:
     return unit * max(1, round(delta / (unit * dt)))
 
 
+#: A contact point touches its surface at t = 0 within this fraction of the model's extent (a
+#: mesh's nodes on a shared plane sit there to ~1e-12 of it): the preload bonds it, `modes`
+#: ties it.
+TOUCHING = 1e-9
+
+
 def bonded_points(mesh: MeshStage) -> BondedPoints:
     """The t = 0 pairing of a gmsh model's node-to-surface contacts, every contact's points
     stacked in order (group: the contact's index)."""
@@ -142,10 +147,6 @@ def bonded_points(mesh: MeshStage) -> BondedPoints:
 def _gmsh_preload(sc: Scenario, mesh: MeshStage) -> Preload:
     """A gmsh model's self-weight state, its closed contacts bonded (collective)."""
     assert mesh.density is not None
-    x = mesh.tagged.mesh.geometry.x
-    lo, hi = x.min(axis=0, initial=np.inf), x.max(axis=0, initial=-np.inf)
-    lo = np.array([mesh.comm.allreduce(float(v), op=MPI.MIN) for v in lo])
-    hi = np.array([mesh.comm.allreduce(float(v), op=MPI.MAX) for v in hi])
     mat = mesh.materials
     uniform = sc.materials[0][1]
     return bonded_preload(
@@ -159,7 +160,7 @@ def _gmsh_preload(sc: Scenario, mesh: MeshStage) -> Preload:
         np.asarray(sc.loading.gravity, dtype=np.float64),
         # Touching at t = 0: within round-off of the model's size (a mesh's nodes on a
         # shared plane sit there to ~1e-12 of it).
-        1e-9 * float(np.linalg.norm(hi - lo)),
+        TOUCHING * mesh.extent(),
     )
 
 
