@@ -250,6 +250,8 @@ def _summary_head(sc: Scenario, sim: Simulation, comm: MPI.Comm) -> dict[str, An
         "mpi_size": comm.size,
         "status": "running",
     }
+    if sim.mesh.mass_scaling is not None:
+        summary["mass_scaling"] = sim.mesh.mass_scaling.summary()
     # Where the constraints live: owned DOFs of the contact and interface rows per rank.
     summary["contact_dofs_per_rank"] = comm.allgather(int(cons.contacts.dofs.size))
     E = it.explicit

@@ -152,6 +152,14 @@ def _cases(tmp: Path) -> dict[str, tuple[list[str], list[str]]]:
             ["check", q, "--set", "model.zone_margin=0"],
             ["model.zone_margin", "greater than 0"],
         ),
+        "mass_scaling_too_much": (
+            ["check", q, "--set", "time.mass_scaling=3e-6"],
+            ["time.mass_scaling = 3e-06 s", "% of the model's", "at most 2 %"],
+        ),
+        "mass_scaling_of_a_bar": (
+            ["check", str(BAR), "--set", "time.mass_scaling=1e-6"],
+            ["time.mass_scaling", "'crane' and 'gmsh' only"],
+        ),
         "wheel_contact": (
             ["check", q, "--set", "wheel.contact='faces'"],
             ["wheel.contact", "'nodes' or 'surface'"],
@@ -249,6 +257,14 @@ def test_check_names_what_will_run(capsys) -> None:
     out = capsys.readouterr().out
     if COMM.rank == 0:
         assert "ok (bar; cd-lagrange; Δt = 8.6726e-07 s (0.9× critical 9.6362e-07 s))" in out
+    # Mass scaling: the critical step reaches at least the target and grows from 1.4473e-06 s
+    # unscaled; the added mass is stated where it goes.
+    assert main(["check", str(QUICK), "--set", "time.mass_scaling=1.2e-6"]) == 0
+    out = capsys.readouterr().out
+    if COMM.rank == 0:
+        crit = float(out.split("critical ")[1].split(" s")[0])
+        assert crit >= 1.2e-6 and crit > 1.2 * 1.4473e-6, out
+        assert "mass scaling to a 1.2e-06 s vertex step" in out and "wheel_1 " in out, out
 
 
 def test_committed_mesh_is_what_crane_fem_mesh_writes(tmp_path) -> None:

@@ -69,6 +69,13 @@ def write_results_csv(path: str | Path, summary: dict[str, Any]) -> None:
 def results_lines(summary: dict[str, Any]) -> list[str]:
     """The table in a few lines to print at the end of a run."""
     lines: list[str] = []
+    ms = summary.get("mass_scaling")
+    if ms:
+        lines.append(
+            f"mass scaling: {ms['added_kg']:.4g} kg added to {ms['cells']} cells "
+            f"({100 * ms['added_fraction']:.3g} % of the model's mass) for a "
+            f"{ms['target_step_s']:.4g} s vertex step"
+        )
     groups = summary.get("wheels") or summary.get("contact_groups") or {}
     if groups:
         label = "wheel" if "wheels" in summary else "contact"

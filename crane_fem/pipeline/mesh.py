@@ -18,6 +18,7 @@ from crane_fem.geometry.block import Block, create_block
 from crane_fem.geometry.box_beam import BoxBeam
 from crane_fem.geometry.crane import CraneMesh, create_crane_mesh
 from crane_fem.geometry.gmsh_file import create_gmsh_mesh
+from crane_fem.mass_scaling import MassScaling, scale_density
 from crane_fem.mesh import Segment
 from crane_fem.scenario import (
     BarModel,
@@ -79,6 +80,7 @@ class MeshStage:
         support_faces: a gmsh model's supports: the global vertex ids of each ``[[support]]``
             group, in order (its reactions are reported per group); empty for the built-in
             models (the crane's clamped ends are told apart by position).
+        mass_scaling: the mass ``time.mass_scaling`` added (included in ``density``), or None.
     """
 
     comm: MPI.Comm
@@ -89,6 +91,7 @@ class MeshStage:
     surface_contacts: tuple[PointsOnSurface, ...] = ()
     materials: CellMaterial | None = None
     support_faces: tuple[IntArray, ...] = ()
+    mass_scaling: MassScaling | None = None
 
     def extent(self) -> float:
         """The largest side of the whole mesh's bounding box (m; collective: the same on
@@ -130,10 +133,23 @@ class CellMaterial:
     rho: FloatArray
 
 
-def _cell_material(sc: Scenario, tagged: TaggedMesh) -> CellMaterial:
+#: The most mass ``time.mass_scaling`` may add, as a fraction of the model's mass and of any
+#: volume group's: beyond it the scaling changes the structure, not only its few smallest
+#: elements (practice in explicit codes: a few per cent at most).
+MAX_ADDED_FRACTION = 0.02
+MAX_ADDED_GROUP_FRACTION = 0.05
+
+
+def _cell_material(sc: Scenario, tagged: TaggedMesh) -> tuple[CellMaterial, MassScaling | None]:
     """Each cell's material (its groups' ``[[material]]`` entry, or the one ``[material]``),
     plus each mass carried rigidly by a group spread uniformly over its volume (the crane's
-    hoisted mass on its trolley frame, a gmsh model's ``[[mass]]`` entries) (collective)."""
+    hoisted mass on its trolley frame, a gmsh model's ``[[mass]]`` entries), plus the mass
+    ``time.mass_scaling`` adds (collective).
+
+    Raises:
+        ScenarioError: the scaling would add more than :data:`MAX_ADDED_FRACTION` of the
+            model's mass.
+    """
     mdl = sc.model
     msh = tagged.mesh
     imap = msh.topology.index_map(msh.topology.dim)
@@ -146,6 +162,7 @@ def _cell_material(sc: Scenario, tagged: TaggedMesh) -> CellMaterial:
             tags = [tagged.cell_groups[g] for g in names]
             cells = tagged.cell_tags.indices[np.isin(tagged.cell_tags.values, tags)]
         E[cells], nu[cells], rho[cells] = mat.E, mat.nu, mat.rho
+    rho_material = rho.copy()
     carried: list[tuple[str, float]] = []
     if isinstance(mdl, CraneModel) and mdl.hoisted_mass > 0.0:
         carried.append(("trolley_frame", mdl.hoisted_mass))
@@ -158,7 +175,28 @@ def _cell_material(sc: Scenario, tagged: TaggedMesh) -> CellMaterial:
             dolfinx.fem.assemble_scalar(dolfinx.fem.form(one * dx(tag))), op=MPI.SUM
         )
         rho[tagged.cell_tags.indices[tagged.cell_tags.values == tag]] += mass / vol
-    return CellMaterial(E, nu, rho)
+    target = sc.time.mass_scaling
+    if target is None:
+        return CellMaterial(E, nu, rho), None
+    rho, info = scale_density(
+        msh, E, nu, rho_material, rho, target, tagged.cell_tags, tagged.cell_groups
+    )
+    if info.fraction > MAX_ADDED_FRACTION:
+        raise ScenarioError(
+            f"time.mass_scaling = {target:g} s would add {info.added:.4g} kg, "
+            f"{100 * info.fraction:.3g} % of the model's {info.model:.4g} kg (at most "
+            f"{100 * MAX_ADDED_FRACTION:g} %): give a smaller step, or mesh the finest "
+            f"features coarser"
+        )
+    worst = max(info.group_fraction, key=lambda g: info.group_fraction[g], default=None)
+    if worst is not None and info.group_fraction[worst] > MAX_ADDED_GROUP_FRACTION:
+        raise ScenarioError(
+            f"time.mass_scaling = {target:g} s would add {1e3 * info.by_group[worst]:.4g} g "
+            f"to group {worst!r}, {100 * info.group_fraction[worst]:.3g} % of its mass (at "
+            f"most {100 * MAX_ADDED_GROUP_FRACTION:g} %): give a smaller step, or mesh the "
+            "finest features coarser"
+        )
+    return CellMaterial(E, nu, rho), info
 
 
 def _surface_contacts(sc: Scenario, tagged: TaggedMesh) -> tuple[PointsOnSurface, ...]:
@@ -227,7 +265,9 @@ def build_mesh(sc: Scenario, comm: MPI.Comm) -> MeshStage:
     mdl = sc.model
     parts = [tagged.facet_vertices(g) for g in support_groups(sc)]
     clamp_local = np.unique(np.concatenate([np.zeros(0, dtype=np.int32), *parts]))
-    material = _cell_material(sc, tagged) if isinstance(mdl, CraneModel | GmshModel) else None
+    material, scaling = (
+        _cell_material(sc, tagged) if isinstance(mdl, CraneModel | GmshModel) else (None, None)
+    )
     density = material.rho if material is not None else None
     # Per-cell E and ν only where they vary (a gmsh model's [[material]] entries).
     cells = material if material is not None and len(sc.materials) > 1 else None
@@ -237,5 +277,13 @@ def build_mesh(sc: Scenario, comm: MPI.Comm) -> MeshStage:
         for s in (sc.support if isinstance(mdl, GmshModel) else [])
     )
     return MeshStage(
-        comm, tagged, crane, tagged.global_vertices(clamp_local), density, surfaces, cells, faces
+        comm,
+        tagged,
+        crane,
+        tagged.global_vertices(clamp_local),
+        density,
+        surfaces,
+        cells,
+        faces,
+        scaling,
     )

@@ -119,6 +119,8 @@ class SimulationCheck:
     dt_critical_undamped: float = 0.0
     micro_steps: int = 0
     dofs_explicit: int = 0
+    #: What ``time.mass_scaling`` added (one line), or None.
+    mass_scaling: str | None = None
 
     def describe(self) -> str:
         """``gc, m = 100: cd-lagrange on contact_zones, newmark on structure; Δt = …`` or
@@ -146,6 +148,8 @@ class SimulationCheck:
                 "for the explicit side alone (damping on the implicit side only costs nothing: "
                 "[[subdomain]] damping or rayleigh)"
             )
+        if self.mass_scaling is not None:
+            text += f"; {self.mass_scaling}"
         return text
 
 
@@ -237,6 +241,7 @@ def check_simulation(sc: Scenario, comm: MPI.Comm) -> SimulationCheck:
             2.0 / models.omega_max if models.omega_max > 0 else models.dt_critical,
             models.end_steps,
             dofs,
+            mesh.mass_scaling.describe() if mesh.mass_scaling is not None else None,
         )
     finally:
         models.destroy()

@@ -418,6 +418,13 @@ class Scenario(Section):
     def _wheels_of_a_crane(self) -> Scenario:
         if self.wheel != Wheel() and not isinstance(self.model, CraneModel):
             raise ValueError("wheel: applies to model.kind 'crane' only (its wheel/rail pairs)")
+        if self.time.mass_scaling is not None and not isinstance(
+            self.model, CraneModel | GmshModel
+        ):
+            raise ValueError(
+                "time.mass_scaling: applies to model.kind 'crane' and 'gmsh' only (their "
+                "tetrahedra's densities)"
+            )
         return self
 
     @model_validator(mode="after")

@@ -187,11 +187,14 @@ class Wheel(Section):
 
 
 class Time(Section):
-    """End time and step: ``dt`` in seconds or ``dt_factor`` times the critical explicit step."""
+    """End time and step: ``dt`` in seconds or ``dt_factor`` times the critical explicit step;
+    ``mass_scaling``: the stable step (s) every vertex is brought to by adding mass to the
+    cells around it (crane_fem.mass_scaling; crane and gmsh models)."""
 
     end: PositiveFloat
     dt: PositiveFloat | None = None
     dt_factor: PositiveFloat | None = None
+    mass_scaling: PositiveFloat | None = None
 
     @model_validator(mode="after")
     def _one_step_spec(self) -> Time:
