@@ -156,6 +156,10 @@ def _cases(tmp: Path) -> dict[str, tuple[list[str], list[str]]]:
             ["check", q, "--set", "time.mass_scaling=3e-6"],
             ["time.mass_scaling = 3e-06 s", "% of the model's", "at most 2 %"],
         ),
+        "drift_correction_not_gc": (
+            ["check", q, "--set", "coupling.drift_correction=true"],
+            ["coupling.drift_correction", "'gc' only"],
+        ),
         "mass_scaling_of_a_bar": (
             ["check", str(BAR), "--set", "time.mass_scaling=1e-6"],
             ["time.mass_scaling", "'crane' and 'gmsh' only"],

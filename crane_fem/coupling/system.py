@@ -290,6 +290,21 @@ class CoupledSystem:
         self.comm.Allreduce(buf, out)
         return out
 
+    def interface_drift(self) -> FloatArray:
+        """L_E U_E + L_I U_I: how far the two sides' interface displacements have drifted
+        apart (m, n_Γ, global; collective). GC and PH make only the velocities continuous
+        (THEORY.md §3): at an impact inside a macro step the explicit side's interface path
+        and the implicit side's trapezoid differ, and the difference stays."""
+        E, I = self.E, self.I  # noqa: E741
+        assert E is not None and I is not None
+        z, n_g = E.zone, self.n_gamma
+        sel = z.t_row < n_g  # the interface rows of the zone's stack (as the kernel sums them)
+        local = np.zeros(n_g)
+        np.add.at(local, z.t_row[sel], z.t_coeff[sel] * E.u[z.t_dof[sel]])
+        out = np.empty_like(local)
+        self.comm.Allreduce(local, out)
+        return out + I.interface_values(I.u)
+
     def implicit_energy(self) -> tuple[float, float]:
         """½ VᵀMV and ½ UᵀKU of the implicit side (global)."""
         I = self.I  # noqa: E741

@@ -252,7 +252,7 @@ def build_integrators(
                 return factory(zone, side, ratio, fixed)
 
         # The method's own keys: the scenario refuses those of another method.
-        keys = (*HYBRID_KEYS, "refine_quiet", "refine_margin")
+        keys = (*HYBRID_KEYS, "refine_quiet", "refine_margin", "drift_correction")
         setup = MethodSetup(
             operator if factory is not None else None,
             {k: getattr(cpl, k) for k in keys if getattr(cpl, k) is not None},

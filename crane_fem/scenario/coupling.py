@@ -145,6 +145,10 @@ class Coupling(Section):
     #: m: a contact predicted (gap + gap rate × the coarse ΔT) to come nearer than this
     #: refines the next coarse step (default crane_fem.coupling.adaptive.GAP_MARGIN).
     refine_margin: Annotated[float, Field(ge=0.0)] | None = None
+    #: gc: shift each macro step's interface velocity targets by the interface displacement
+    #: drift over ΔT (L_E U_E + L_I U_I, docs/theory-notes.md §16), so that the two sides'
+    #: interface displacements do not drift apart at impacts. Off: GC as published.
+    drift_correction: bool | None = None
 
     @property
     def monolithic_scheme(self) -> str:

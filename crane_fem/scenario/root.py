@@ -337,6 +337,8 @@ class Scenario(Section):
                         f"{', '.join(SOLVED_INTERFACE_METHODS)} only (they solve the interface "
                         "every micro step)"
                     )
+        if cpl is not None and cpl.drift_correction is not None and cpl.method != "gc":
+            raise ValueError("coupling.drift_correction applies to method 'gc' only")
         if cpl is not None and cpl.method != "hybrid":
             for key in HYBRID_KEYS:
                 if getattr(cpl, key) is not None:
