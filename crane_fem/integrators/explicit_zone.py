@@ -137,12 +137,13 @@ def _friction_arrays(
     n_comp, label = connected_components(graph, directed=False)
     comp_order = np.argsort(label, kind="stable").astype(np.int64)
     comp_ptr = np.searchsorted(label[comp_order], np.arange(n_comp + 1)).astype(np.int64)
-    iso = np.zeros(pc, dtype=bool)
-    for c in range(pc):
-        rows = np.flatnonzero(point == c)
-        block = Wf[np.ix_(rows, rows)]
-        w = W_cc[c, c]
-        iso[c] = bool(np.max(np.abs(block - w * np.eye(rows.size))) <= ISOTROPY_TOL * w)
+    # A point is isotropic when its own block (its normal and tangential rows) is w I.
+    r1, r2 = np.nonzero(point[:, None] == point[None, :])
+    w_point = np.diag(W_cc)
+    dev = np.abs(Wf[r1, r2] - np.where(r1 == r2, w_point[point[r1]], 0.0))
+    worst = np.zeros(pc)
+    np.maximum.at(worst, point[r1], dev)
+    iso = worst <= ISOTROPY_TOL * w_point
     return _Friction(
         nt,
         t.rows.astype(np.int64),
