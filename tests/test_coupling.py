@@ -43,6 +43,7 @@ def m1_long(method: str):
     )
 
 
+@pytest.mark.serial
 def test_m1_interface_energy_zero_in_gc_measure(shared_tmp) -> None:
     """m = 1, CD + average acceleration, 10⁴ steps: the interface energy in the GC measure
     (link work Δt Λ̄ᵀ(L_E V̄_E + L_I V̄_I), trapezoidal, docs/theory-notes.md §5) vanishes by
@@ -325,6 +326,7 @@ def test_gc_mean_interface_energy_is_a_sum_of_squares(shared_tmp, ratio) -> None
     assert s["energy_balance_error"] <= 1e-10
 
 
+@pytest.mark.serial
 def test_gc_mean_m1_interface_energy_zero_over_1e4_steps(shared_tmp) -> None:
     """m = 1: the closed form vanishes (one multiplier per macro step), so the interface
     energy is zero to round-off over 10⁴ steps in the measure of the proof (the physical
@@ -340,6 +342,7 @@ def test_gc_mean_m1_interface_energy_zero_over_1e4_steps(shared_tmp) -> None:
 
 
 @pytest.mark.parametrize("ratio", [2, 3, 10])
+@pytest.mark.serial
 def test_gc_mean_long_undamped_run_never_gains_energy(shared_tmp, ratio) -> None:
     """The clamped split bar without damping or contact, a pulse bouncing for 4.4·10⁴ micro
     steps (where "gc" grows 10³–10⁴× at m = 2, 3, 10: benchmarks/gc_stability.py): with

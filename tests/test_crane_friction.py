@@ -47,6 +47,7 @@ def test_flange_groups_start_at_the_clearance(shared_tmp) -> None:
     assert s["energy_balance_error"] <= 1e-9
 
 
+@pytest.mark.serial
 def test_lateral_shake_strikes_the_flanges_and_guides_the_wheels(shared_tmp) -> None:
     """The lateral shake that drives frictionless, unguided wheels 12.5 mm off their pairs
     (tests/test_slip.py) now closes the 5 mm flange gaps: every flange strikes its rail
@@ -82,6 +83,7 @@ def _worst_slip(s: dict) -> float:
     return max(w["max_slip_across_m"] for w in s["wheels"].values())
 
 
+@pytest.mark.serial
 def test_braked_wheels_slip_less_by_friction(shared_tmp) -> None:
     """Shaken across the rails (flanges off), braked wheels with μ = 0.3 slip less than
     frictionless ones (measured over 0.03 s: 0.48 mm against 0.99 mm), friction dissipates
@@ -95,6 +97,7 @@ def test_braked_wheels_slip_less_by_friction(shared_tmp) -> None:
     assert s1["energy_balance_error"] <= 1e-9
 
 
+@pytest.mark.serial
 def test_free_wheels_rub_across_only(shared_tmp) -> None:
     """Free (unbraked) wheels get the row across the rail only: friction still dissipates and
     the balance holds."""
@@ -175,6 +178,7 @@ def test_three_component_scene_guides_holds_and_agrees_on_two_ranks(tmp_path) ->
     assert abs(s1["trolley_drift_m"][1]) > 0.5 * REACH  # it slid along, by ~10 mm
 
 
+@pytest.mark.serial
 def test_frictionless_free_wheels_stop_the_three_component_run(shared_tmp) -> None:
     """The same record with μ = 0 and free wheels, on node-to-node pairs: nothing holds the
     trolley along its rails, and the first flight carries it past the pairs' reach; the run

@@ -11,6 +11,7 @@ from crane_fem.errors import UnstableRunError
 from crane_fem.io import read_history
 
 
+@pytest.mark.serial
 def test_cd_lagrange_long_run_bounded_energy(shared_tmp) -> None:
     """10⁵ steps of the clamped bar bouncing on its obstacle (an impact every 3 s)."""
     ne = 20

@@ -27,6 +27,7 @@ def _bouncing(ne: int, shared_tmp):
     return run(sc, shared_tmp)
 
 
+@pytest.mark.serial
 def test_bouncing_bar_two_impacts(shared_tmp, bouncing_reference) -> None:
     ref = bouncing_reference
     L, c = 10.0, 30.0
