@@ -297,13 +297,7 @@ class CoupledSystem:
         and the implicit side's trapezoid differ, and the difference stays."""
         E, I = self.E, self.I  # noqa: E741
         assert E is not None and I is not None
-        z, n_g = E.zone, self.n_gamma
-        sel = z.t_row < n_g  # the interface rows of the zone's stack (as the kernel sums them)
-        local = np.zeros(n_g)
-        np.add.at(local, z.t_row[sel], z.t_coeff[sel] * E.u[z.t_dof[sel]])
-        out = np.empty_like(local)
-        self.comm.Allreduce(local, out)
-        return out + I.interface_values(I.u)
+        return E.interface.apply(E.u) + I.interface_values(I.u)
 
     def implicit_energy(self) -> tuple[float, float]:
         """½ VᵀMV and ½ UᵀKU of the implicit side (global)."""
