@@ -39,7 +39,6 @@ import numpy.typing as npt
 from mpi4py import MPI
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from crane_fem.contact.constraints import ContactSet, TangentRows
 from crane_fem.contact.surface import (
@@ -48,9 +47,11 @@ from crane_fem.contact.surface import (
     canonical,
     owned_terms,
     pair_points,
+    pair_with_vertices,
     surface_rows,
 )
 from crane_fem.errors import CraneFemError, ScenarioError
+from crane_fem.kernels.projection import offsets_over_pairings
 
 __all__ = [
     "REPAIR_FRACTION",
@@ -123,6 +124,20 @@ class Family:
     @property
     def p(self) -> int:
         return int(self.points.size)
+
+
+@dataclass(frozen=True)
+class _Flat:
+    """The pairings of every family, flat (p_total points): each point's slot in
+    :attr:`SlidingContacts.ids`, its triangle's vertices' slots (p_total, 3), ξ, n, whether
+    it is paired, and whether it acts on a triangle (not a vertex by choice)."""
+
+    point: IntArray
+    vertex: IntArray
+    xi: FloatArray
+    normal: FloatArray
+    paired: npt.NDArray[np.bool_]
+    on_triangle: npt.NDArray[np.bool_]
 
 
 def tangents_of(normal: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -232,7 +247,7 @@ class SlidingContacts:
         edges = [self._shortest_edge(f.surface) for f in families]
         self.threshold = REPAIR_FRACTION * min(edges, default=np.inf)
         self.slide_tol = SLIDE_TOL * min(edges, default=np.inf)
-        self.pairings: list[Pairing] = []
+        self._offset = np.concatenate([f.offset for f in families]).astype(np.float64)
         self.repairs = 0
         self.sliding = False
         # Each point's tangential offset over its triangle when it was paired (the first
@@ -240,10 +255,22 @@ class SlidingContacts:
         self.offsets: FloatArray | None = None
         self.sliding_since: float | None = None
         self._t0_pairing()
-        self.g0 = self._gaps(self.pairings, self.X)
+        self.g0 = self._ref_gaps.copy()
         self._extents = [
             self._piece_extent(f, pr) for f, pr in zip(families, self.pairings, strict=True)
         ]
+
+    @property
+    def pairings(self) -> list[Pairing]:
+        """Each family's current pairing (its rows')."""
+        return self._pairings
+
+    @pairings.setter
+    def pairings(self, pairings: list[Pairing]) -> None:
+        self._pairings = list(pairings)
+        self._flat = self._flatten(self._pairings)
+        # The rows' distances at X: g0 + L u is the distance now when g0 = exact − (L u).
+        self._ref_gaps = self._gaps(self._flat, self.X)
 
     @staticmethod
     def _piece_extent(f: Family, pairing: Pairing) -> FloatArray:
@@ -277,13 +304,14 @@ class SlidingContacts:
     def _t0_pairing(self) -> None:
         """The pairing of the reference configuration, ξ snapped (collective only through
         nothing: pure geometry on data every rank holds)."""
-        self.pairings = []
+        pairings = []
         for j, (f, sp, ss) in enumerate(
             zip(self.families, self._slot_p, self._slot_s, strict=True)
         ):
             pairing = _snap(self._project(f, self.X[sp], self.X[ss]))
             self._check_paired(j, pairing, None, 0.0)
-            self.pairings.append(pairing)
+            pairings.append(pairing)
+        self.pairings = pairings
 
     @staticmethod
     def _project(f: Family, xp: FloatArray, xs: FloatArray) -> Pairing:
@@ -293,17 +321,7 @@ class SlidingContacts:
         deformed = Surface(xs, f.surface.triangles, f.surface.vertex_ids)
         if f.vertices is None:
             return pair_points(xp, deformed)
-        _, near = cKDTree(xs[f.vertices]).query(xp)
-        vert = f.vertices[np.asarray(near, dtype=np.int64)]
-        tris = f.surface.triangles
-        # A triangle holding each vertex, and the vertex's place in it.
-        holder = np.full(xs.shape[0], -1, dtype=np.int64)
-        holder[tris.ravel()[::-1]] = np.repeat(np.arange(tris.shape[0]), 3)[::-1]
-        tri = holder[vert]
-        xi = (tris[tri] == vert[:, None]).astype(np.float64)
-        normal = deformed.normals[tri]
-        gap = np.einsum("pj,pj->p", normal, xp - xs[vert])
-        return Pairing(tri, xi, normal, gap)
+        return pair_with_vertices(xp, deformed, f.vertices)
 
     def _check_paired(self, j: int, pairing: Pairing, x: FloatArray | None, t: float) -> None:
         """Raise when a point of family ``j``, if it has an ``along`` axis, is off its piece
@@ -399,58 +417,73 @@ class SlidingContacts:
         """x = X + u of every vertex the families use (collective)."""
         U = np.zeros((self.ids.size, 3))
         U[self._pos] = u.reshape(-1, 3)[self._blocks]
-        return self.X + self.comm.allreduce(U, op=MPI.SUM)
+        if self.comm.size > 1:  # a buffer reduction: the pickled one costs 0.1 ms a call
+            self.comm.Allreduce(MPI.IN_PLACE, U, op=MPI.SUM)
+        return self.X + U
+
+    def _flatten(self, pairings: list[Pairing]) -> _Flat:
+        """The pairings flat over the families (not collective)."""
+        fam = list(zip(self.families, pairings, self._slot_s, strict=True))
+        return _Flat(
+            np.concatenate(self._slot_p).astype(np.int64),
+            np.concatenate(
+                [ss[f.surface.triangles[np.maximum(pr.triangle, 0)]] for f, pr, ss in fam]
+            ).astype(np.int64),
+            np.ascontiguousarray(np.concatenate([pr.xi for _, pr, _ in fam])),
+            np.ascontiguousarray(np.concatenate([pr.normal for _, pr, _ in fam])),
+            np.concatenate([pr.paired for _, pr, _ in fam]),
+            np.concatenate([pr.paired & (f.vertices is None) for f, pr, _ in fam]),
+        )
+
+    @staticmethod
+    def _split(
+        flat: _Flat, x: FloatArray, tangential_of: npt.NDArray[np.bool_] | None = None
+    ) -> tuple[FloatArray, FloatArray]:
+        """Each point's x_p − Σ ξ_i x_i at the coordinates ``x`` of :attr:`ids` (or their
+        displacements), split into its component along the normal (p_total,) and its
+        tangential part (p_total, 3), the latter where ``tangential_of`` (default: on a
+        triangle; zeros elsewhere). Not collective."""
+        along = np.empty(flat.point.size)
+        tangential = np.empty((flat.point.size, 3))
+        offsets_over_pairings(
+            np.ascontiguousarray(x),
+            flat.point,
+            flat.vertex,
+            flat.xi,
+            flat.normal,
+            flat.on_triangle if tangential_of is None else tangential_of,
+            along,
+            tangential,
+        )
+        return along, tangential
 
     def _tangential(self, x: FloatArray) -> FloatArray:
         """Each point's tangential offset (p_total, 3) over its current pairing at the
         coordinates ``x``: the tangential part of x_p − Σ ξ_i x_i (zeros where unpaired or on a
         vertex by choice). Not collective."""
-        out = []
-        for f, pairing, sp, ss in zip(
-            self.families, self.pairings, self._slot_p, self._slot_s, strict=True
-        ):
-            d = np.zeros((f.p, 3))
-            on = pairing.paired
-            if f.vertices is None and np.any(on):
-                tri = f.surface.triangles[pairing.triangle[on]]
-                xs = np.einsum("pk,pkj->pj", pairing.xi[on], x[ss][tri])
-                dd = x[sp][on] - xs
-                n = pairing.normal[on]
-                d[on] = dd - np.einsum("pj,pj->p", dd, n)[:, None] * n
-            out.append(d)
-        return np.concatenate(out) if out else np.zeros((0, 3))
+        return self._split(self._flat, x)[1]
 
     def slip(self, u: FloatArray) -> FloatArray:
         """Each point's slip over its surface (p_total, 3), m: the tangential part of
         u_p − Σ ξ_i u_i, its displacement less the surface's where it now touches, on its
         current pairing (zeros where unpaired) — the distance it has slid, whichever
         triangle it is on (collective: ``u`` the explicit side's owned DOFs)."""
-        x = self._current(u)
-        U = x - self.X
-        out = []
-        for f, pairing, sp, ss in zip(
-            self.families, self.pairings, self._slot_p, self._slot_s, strict=True
-        ):
-            d = np.zeros((f.p, 3))
-            on = pairing.paired
-            if np.any(on):
-                tri = f.surface.triangles[pairing.triangle[on]]
-                rel = U[sp][on] - np.einsum("pk,pkj->pj", pairing.xi[on], U[ss][tri])
-                n = pairing.normal[on]
-                d[on] = rel - np.einsum("pj,pj->p", rel, n)[:, None] * n
-            out.append(d)
-        return np.concatenate(out) if out else np.zeros((0, 3))
+        U = self._current(u) - self.X
+        return self._split(self._flat, U, self._flat.paired)[1]
 
     def drift(self, x: FloatArray, projected: dict[int, Pairing] | None = None) -> float:
         """The largest tangential drift of a point over its triangle since its pairing (m)
         at the current coordinates ``x`` of :attr:`ids`; +inf when a point that acts on a
         vertex has another allowed vertex nearer. ``projected``: the families of such points
         already projected at ``x`` (:meth:`_vertex_projections`), by index. Not collective."""
-        ref = self.offsets if self.offsets is not None else 0.0
-        d = self._tangential(x) - ref
-        worst = float(np.max(np.linalg.norm(d, axis=1), initial=0.0))
         if projected is None:
             projected = self._vertex_projections(x)
+        return self._drift(self._tangential(x), projected)
+
+    def _drift(self, tangential: FloatArray, projected: dict[int, Pairing]) -> float:
+        """:meth:`drift` from the points' tangential offsets now."""
+        d = tangential - (self.offsets if self.offsets is not None else 0.0)
+        worst = float(np.sqrt(np.max(np.einsum("pj,pj->p", d, d), initial=0.0)))
         for j, now in projected.items():
             pairing = self.pairings[j]
             if np.any(now.triangle != pairing.triangle) or np.any(now.xi != pairing.xi):
@@ -468,18 +501,11 @@ class SlidingContacts:
             if f.vertices is not None
         }
 
-    def _gaps(self, pairings: list[Pairing], x: FloatArray) -> FloatArray:
-        """Each point's distance n·(x_p − Σ ξ_i x_i) + c_p for ``pairings`` at the coordinates
-        ``x`` of :attr:`ids`, :data:`OPEN_GAP` where unpaired (not collective)."""
-        out = []
-        for f, pairing, sp, ss in zip(
-            self.families, pairings, self._slot_p, self._slot_s, strict=True
-        ):
-            tri = f.surface.triangles[np.maximum(pairing.triangle, 0)]
-            xs = np.einsum("pk,pkj->pj", pairing.xi, x[ss][tri])
-            g = np.einsum("pj,pj->p", pairing.normal, x[sp] - xs) + f.offset
-            out.append(np.where(pairing.paired, g, OPEN_GAP))
-        return np.concatenate(out) if out else np.zeros(0)
+    def _gaps(self, flat: _Flat, x: FloatArray) -> FloatArray:
+        """Each point's distance n·(x_p − Σ ξ_i x_i) + c_p for the pairings ``flat`` at the
+        coordinates ``x`` of :attr:`ids`, :data:`OPEN_GAP` where unpaired (not
+        collective)."""
+        return np.where(flat.paired, self._split(flat, x)[0] + self._offset, OPEN_GAP)
 
     def update(self, zone: Any, t: float) -> bool:
         """Before a macro step (collective): once the points slide, set the gaps to the
@@ -490,29 +516,32 @@ class SlidingContacts:
             SlidingError: a point ran off its surface's extent (on every rank).
         """
         x = self._current(zone.u)
+        along, tangential = self._split(self._flat, x)
         if self.offsets is None:  # the first call: the start's offsets are no slide
-            self.offsets = self._tangential(x)
+            self.offsets = tangential
         # The vertex families' projections serve both the drift and the new pairing.
         projected = self._vertex_projections(x)
-        drift = self.drift(x, projected)
+        drift = self._drift(tangential, projected)
         if not self.sliding and drift <= self.slide_tol:
             return False
         if not self.sliding:
             self.sliding, self.sliding_since = True, float(t)
         fresh = self._pair(x, t, projected)
-        exact = self._gaps(fresh, x)
+        # The fresh pairings' distances are their gaps (+inf where unpaired): a clipped ξ
+        # moves a point's foot within its triangle's plane only.
+        exact = np.concatenate([pr.gap for pr in fresh]) + self._offset
         # A point projecting onto no triangle (an overhang across) keeps its rows' distance
         # until they are paired again.
-        now = self._gaps(self.pairings, x)
+        now = np.where(self._flat.paired, along + self._offset, OPEN_GAP)
         exact = np.where(exact < OPEN_GAP, exact, now)
         repair = drift > self.threshold
         if repair:
             self.pairings = fresh
             self.offsets = self._tangential(x)
             self.repairs += 1
-            now = self._gaps(fresh, x)
+            now = self._gaps(self._flat, x)
         # g0 + L u = exact, with L u = (the rows' distance now) − (theirs at X).
-        ref = self._gaps(self.pairings, self.X)
+        ref = self._ref_gaps
         self.g0 = np.where(ref < OPEN_GAP, exact - (now - ref), OPEN_GAP)
         if repair:
             zone.set_contacts(self.rows())

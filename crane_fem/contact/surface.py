@@ -26,8 +26,10 @@ from mpi4py import MPI
 from scipy.spatial import cKDTree
 
 from crane_fem.contact.constraints import ContactSet
+from crane_fem.kernels.projection import select_triangles, select_vertices
 
 __all__ = [
+    "BRUTE_FORCE_PAIRS",
     "Pairing",
     "Surface",
     "canonical",
@@ -35,6 +37,7 @@ __all__ = [
     "group_surface",
     "owned_terms",
     "pair_points",
+    "pair_with_vertices",
     "surface_rows",
 ]
 
@@ -50,6 +53,10 @@ IntArray = npt.NDArray[np.int64]
 #: crossing an inner edge stays continuous).
 INSIDE_TOL = 1e-3
 STRICT_TOL = 1e-10
+#: Up to this many (point, triangle) pairs, every triangle is a candidate of every point (a
+#: compiled pass over them costs less than building a search tree: the crane's 32 points on
+#: 84 triangles, 10 µs); beyond, the triangles of nearest centroids.
+BRUTE_FORCE_PAIRS = 200_000
 
 
 @dataclass(frozen=True)
@@ -92,54 +99,15 @@ class Pairing:
         return surface.vertex_ids[verts], coeff
 
 
-def _barycentric(
-    x: FloatArray, a: FloatArray, b: FloatArray, c: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """Barycentric coordinates (k, 3) of the projections of points x (k, 3) onto the planes of
-    triangles (a, b, c) (k, 3 each), and the projections (k, 3)."""
-    e1, e2 = b - a, c - a
-    n = np.empty_like(e1)  # e1 × e2 (np.cross costs more than the rest on small arrays)
-    n[:, 0] = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
-    n[:, 1] = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
-    n[:, 2] = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    nn = np.einsum("ij,ij->i", n, n)
-    d = x - a
-    # Projection onto the plane, then Cramer's rule on the in-plane system.
-    dist = np.einsum("ij,ij->i", d, n) / nn
-    p = x - dist[:, None] * n
-    dp = p - a
-    d11 = np.einsum("ij,ij->i", e1, e1)
-    d12 = np.einsum("ij,ij->i", e1, e2)
-    d22 = np.einsum("ij,ij->i", e2, e2)
-    r1 = np.einsum("ij,ij->i", dp, e1)
-    r2 = np.einsum("ij,ij->i", dp, e2)
-    det = d11 * d22 - d12 * d12
-    s = (d22 * r1 - d12 * r2) / det
-    t = (d11 * r2 - d12 * r1) / det
-    return np.column_stack([1.0 - s - t, s, t]), p
-
-
-def pair_points(
-    points: FloatArray, surface: Surface, candidates: int = 8, reach: float = np.inf
-) -> Pairing:
-    """Pair each point (p, 3) with the triangle it projects into (see the module docstring):
-    among the ``candidates`` triangles whose centroids are nearest, those that contain its
-    projection, the one nearest along its normal; a point with none within ``reach`` (m) of
-    its plane is left unpaired (triangle −1, gap +inf). Not collective."""
+def _nearest_centroids(x: FloatArray, surface: Surface, candidates: int, reach: float) -> IntArray:
+    """Per point (p, k), the triangles whose centroids are nearest, in increasing index: as
+    many as needed for the farthest to lie beyond the largest circumscribing radius about a
+    centroid (plus the point's distance to its plane, at most ``reach``); a triangle farther
+    cannot hold the point's projection (a point by a thin triangle needs more than
+    ``candidates``)."""
     tri = surface.triangles
-    x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n_p = x.shape[0]
-    out_t = np.full(n_p, -1, dtype=np.int64)
-    out_xi = np.zeros((n_p, 3))
-    out_n = np.zeros((n_p, 3))
-    out_g = np.full(n_p, np.inf)
-    if n_p == 0 or tri.shape[0] == 0:
-        return Pairing(out_t, out_xi, out_n, out_g)
     centroids = surface.xyz[tri].mean(axis=1)
-    # A triangle holds the projections only of points within its circumscribing radius
-    # about its centroid (plus the point's distance to its plane, at most ``reach``): the
-    # candidates are the nearest centroids, as many as needed for the farthest to lie beyond
-    # the largest such radius (a point by a thin triangle needs more than ``candidates``).
     radius = float(np.max(np.linalg.norm(surface.xyz[tri] - centroids[:, None, :], axis=2)))
     tree = cKDTree(centroids)
     k = min(candidates, tri.shape[0])
@@ -150,31 +118,68 @@ def pair_points(
         if k == tri.shape[0] or np.all(dist[:, -1] > np.hypot(radius, depth)):
             break
         k = min(2 * k, tri.shape[0])
-    near = np.asarray(near, dtype=np.int64).reshape(n_p, k)
-    normals = surface.normals
-    # Every (point, candidate) pair in one vectorised pass.
-    cand = near.ravel()
-    xr = np.repeat(x, k, axis=0)
-    a, b, c = (surface.xyz[tri[cand, i]] for i in range(3))
-    xi, proj = _barycentric(xr, a, b, c)
-    gap = np.einsum("ij,ij->i", xr - proj, normals[cand])
-    low = xi.min(axis=1)
-    inside = (low >= -INSIDE_TOL) & (np.abs(gap) <= reach)
-    # A triangle holding the point strictly beats one holding it within the border's
-    # tolerance; among equals, the nearest along its normal (the first of equals).
-    rank = np.where(inside, np.where(low >= -STRICT_TOL, 0, 1), 2).reshape(n_p, k)
-    best_rank = rank.min(axis=1)
-    score = np.where(rank == best_rank[:, None], np.abs(gap).reshape(n_p, k), np.inf)
-    j = np.argmin(score, axis=1)
-    pick = np.arange(n_p) * k + j
-    ok = best_rank < 2
-    sel = pick[ok]
-    out_t[ok] = cand[sel]
-    out_xi[ok] = np.clip(xi[sel], 0.0, 1.0)
-    out_xi[ok] /= out_xi[ok].sum(axis=1)[:, None]
-    out_n[ok] = normals[cand[sel]]
-    out_g[ok] = gap[sel]
+    return np.sort(np.asarray(near, dtype=np.int64).reshape(n_p, k), axis=1)
+
+
+def pair_points(
+    points: FloatArray, surface: Surface, candidates: int = 8, reach: float = np.inf
+) -> Pairing:
+    """Pair each point (p, 3) with the triangle it projects into (see the module docstring):
+    among every triangle (up to :data:`BRUTE_FORCE_PAIRS` pairs), or the ``candidates``
+    triangles whose centroids are nearest, those that contain its projection, the one
+    nearest along its normal (the lowest index among equals); a point with none within
+    ``reach`` (m) of its plane is left unpaired (triangle −1, gap +inf). Not collective."""
+    tri = surface.triangles
+    x = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+    n_p = x.shape[0]
+    out_t = np.full(n_p, -1, dtype=np.int64)
+    out_xi = np.zeros((n_p, 3))
+    out_n = np.zeros((n_p, 3))
+    out_g = np.full(n_p, np.inf)
+    if n_p == 0 or tri.shape[0] == 0:
+        return Pairing(out_t, out_xi, out_n, out_g)
+    if n_p * tri.shape[0] <= BRUTE_FORCE_PAIRS:
+        near = np.broadcast_to(np.arange(tri.shape[0], dtype=np.int64), (n_p, tri.shape[0]))
+    else:
+        near = _nearest_centroids(x, surface, candidates, reach)
+    select_triangles(
+        x,
+        np.ascontiguousarray(surface.xyz, dtype=np.float64),
+        np.ascontiguousarray(tri, dtype=np.int64),
+        np.ascontiguousarray(near),
+        float(reach),
+        INSIDE_TOL,
+        STRICT_TOL,
+        out_t,
+        out_xi,
+        out_n,
+        out_g,
+    )
     return Pairing(out_t, out_xi, out_n, out_g)
+
+
+def pair_with_vertices(points: FloatArray, surface: Surface, allowed: IntArray) -> Pairing:
+    """Pair each point (p, 3) with the vertex of ``allowed`` (indices into the surface's)
+    nearest to it (the first of equals), as a point of a triangle holding that vertex (ξ its
+    e_k; gap: the distance from the vertex along that triangle's normal). Not collective."""
+    tri = np.ascontiguousarray(surface.triangles, dtype=np.int64)
+    xyz = np.ascontiguousarray(surface.xyz, dtype=np.float64)
+    x = np.ascontiguousarray(np.asarray(points, dtype=np.float64).reshape(-1, 3))
+    n_p = x.shape[0]
+    allowed = np.asarray(allowed, dtype=np.int64)
+    if n_p * allowed.size <= BRUTE_FORCE_PAIRS:
+        near = np.ascontiguousarray(np.broadcast_to(allowed, (n_p, allowed.size)))
+    else:
+        _, k = cKDTree(xyz[allowed]).query(x)
+        near = allowed[np.asarray(k, dtype=np.int64)].reshape(n_p, 1)
+    # The first triangle holding each vertex.
+    holder = np.full(xyz.shape[0], -1, dtype=np.int64)
+    holder[tri.ravel()[::-1]] = np.repeat(np.arange(tri.shape[0]), 3)[::-1]
+    out = Pairing(
+        np.zeros(n_p, dtype=np.int64), np.zeros((n_p, 3)), np.zeros((n_p, 3)), np.zeros(n_p)
+    )
+    select_vertices(x, xyz, tri, holder, near, out.triangle, out.xi, out.normal, out.gap)
+    return out
 
 
 class _OwnedDofs(Protocol):
