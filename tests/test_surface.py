@@ -170,3 +170,60 @@ def test_crane_rail_tops_pair_the_wheels_on_their_vertices(shared_tmp) -> None:
         assert all(x == areas[0] for x in areas)
     finally:
         models.destroy()
+
+
+def test_every_triangle_or_the_nearest_centroids_pair_alike(monkeypatch) -> None:
+    """The two candidate sets of :func:`pair_points` (every triangle up to
+    ``BRUTE_FORCE_PAIRS`` pairs, else those of nearest centroids) choose the same triangle
+    with the same ξ, normal and gap, bit for bit (the same compiled choice over the same
+    holders, the lowest index among equals): points above vertices (held by up to six
+    triangles), on edges, inside, beyond the rail's end and out of reach."""
+    from crane_fem.contact import surface as surface_mod
+
+    s = _rail_top(seed=4)
+    rng = np.random.default_rng(5)
+    pts = np.column_stack(
+        [rng.uniform(-0.01, 0.31, 400), rng.uniform(-0.03, 0.03, 400), rng.uniform(0.389, 0.4, 400)]
+    )
+    pts[:30] = s.xyz[rng.integers(0, s.xyz.shape[0], 30)] + [0.0, 0.0, 1e-4]
+    a_, b_ = s.xyz[s.triangles[:30, 0]], s.xyz[s.triangles[:30, 1]]
+    pts[30:60] = 0.5 * (a_ + b_) + [0.0, 0.0, 2e-4]  # on edges
+    assert pts.shape[0] * s.triangles.shape[0] <= surface_mod.BRUTE_FORCE_PAIRS
+    every = pair_points(pts, s, reach=0.005)
+    monkeypatch.setattr(surface_mod, "BRUTE_FORCE_PAIRS", 0)
+    nearest = pair_points(pts, s, reach=0.005)
+    np.testing.assert_array_equal(every.triangle, nearest.triangle)
+    for name in ("xi", "normal", "gap"):
+        np.testing.assert_array_equal(getattr(every, name), getattr(nearest, name))
+    assert 0 < every.paired.sum() < pts.shape[0]  # some beyond the end or out of reach
+    # On a vertex held by several triangles: the lowest index that holds it.
+    v = 20
+    one = pair_points(s.xyz[v][None, :] + [0.0, 0.0, 1e-4], s)
+    holders = np.flatnonzero(np.any(s.triangles == v, axis=1))
+    assert holders.size >= 3 and one.triangle[0] == holders.min()
+
+
+def test_pair_with_vertices_takes_the_nearest_allowed_vertex(monkeypatch) -> None:
+    """:func:`pair_with_vertices` puts each point on the nearest of the allowed vertices (by
+    every distance, or by a search tree beyond ``BRUTE_FORCE_PAIRS``: the same vertex), as
+    that vertex's ξ in a triangle holding it, its gap along that triangle's normal."""
+    from crane_fem.contact import surface as surface_mod
+    from crane_fem.contact.surface import pair_with_vertices
+
+    s = _rail_top(seed=6)
+    allowed = np.arange(0, s.xyz.shape[0], 2)
+    rng = np.random.default_rng(7)
+    pts = np.column_stack(
+        [rng.uniform(0.0, 0.3, 200), rng.uniform(-0.025, 0.025, 200), np.full(200, 0.3905)]
+    )
+    d = np.linalg.norm(pts[:, None, :] - s.xyz[allowed][None, :, :], axis=2)
+    expected = allowed[np.argmin(d, axis=1)]
+    for limit in (surface_mod.BRUTE_FORCE_PAIRS, 0):
+        monkeypatch.setattr(surface_mod, "BRUTE_FORCE_PAIRS", limit)
+        pr = pair_with_vertices(pts, s, allowed)
+        tri = s.triangles[pr.triangle]
+        vert = tri[np.arange(200), np.argmax(pr.xi, axis=1)]
+        np.testing.assert_array_equal(vert, expected)
+        np.testing.assert_array_equal(pr.xi.sum(axis=1), 1.0)
+        np.testing.assert_allclose(pr.normal, np.tile([0.0, 0.0, 1.0], (200, 1)), atol=1e-15)
+        np.testing.assert_allclose(pr.gap, 5e-4, rtol=0, atol=1e-12)
