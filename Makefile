@@ -23,8 +23,10 @@ lint: $(BIN)/.installed
 	$(BIN)/mypy crane_fem
 
 # pytest exits 5 when it collected no test: that is a failure here, as is any non-zero code.
+# The serial pass runs on NP workers (pytest-xdist), a file per worker (a module's shared
+# runs are made once): 7.5 instead of 11.6 min on 2 cores.
 test-serial: $(BIN)/.installed
-	$(BIN)/python -m pytest -q tests
+	$(BIN)/python -m pytest -q -n $(NP) --dist loadfile tests
 
 # One BLAS/OpenMP thread per rank: NP ranks of threaded BLAS oversubscribe the cores.
 test-mpi: $(BIN)/.installed
