@@ -17,6 +17,24 @@ IntArray = npt.NDArray[np.int64]
 
 
 @numba.njit(cache=True)
+def _edges(
+    xyz: FloatArray, triangles: IntArray, t: int
+) -> tuple[float, float, float, float, float, float, float, float, float]:
+    """Triangle t's edges e1 = b − a, e2 = c − a and its normal e1 × e2 (not unit)."""
+    a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+    e10 = xyz[b, 0] - xyz[a, 0]
+    e11 = xyz[b, 1] - xyz[a, 1]
+    e12 = xyz[b, 2] - xyz[a, 2]
+    e20 = xyz[c, 0] - xyz[a, 0]
+    e21 = xyz[c, 1] - xyz[a, 1]
+    e22 = xyz[c, 2] - xyz[a, 2]
+    n0 = e11 * e22 - e12 * e21
+    n1 = e12 * e20 - e10 * e22
+    n2 = e10 * e21 - e11 * e20
+    return e10, e11, e12, e20, e21, e22, n0, n1, n2
+
+
+@numba.njit(cache=True)
 def select_triangles(
     x: FloatArray,
     xyz: FloatArray,
@@ -48,17 +66,7 @@ def select_triangles(
             if t < 0:
                 break
             a = triangles[t, 0]
-            b = triangles[t, 1]
-            c = triangles[t, 2]
-            e10 = xyz[b, 0] - xyz[a, 0]
-            e11 = xyz[b, 1] - xyz[a, 1]
-            e12 = xyz[b, 2] - xyz[a, 2]
-            e20 = xyz[c, 0] - xyz[a, 0]
-            e21 = xyz[c, 1] - xyz[a, 1]
-            e22 = xyz[c, 2] - xyz[a, 2]
-            n0 = e11 * e22 - e12 * e21
-            n1 = e12 * e20 - e10 * e22
-            n2 = e10 * e21 - e11 * e20
+            e10, e11, e12, e20, e21, e22, n0, n1, n2 = _edges(xyz, triangles, t)
             nn = n0 * n0 + n1 * n1 + n2 * n2
             d0 = x[i, 0] - xyz[a, 0]
             d1 = x[i, 1] - xyz[a, 1]
@@ -134,18 +142,7 @@ def select_vertices(
             if d < best:
                 best, v = d, w
         t = holder[v]
-        a = triangles[t, 0]
-        b = triangles[t, 1]
-        c = triangles[t, 2]
-        e10 = xyz[b, 0] - xyz[a, 0]
-        e11 = xyz[b, 1] - xyz[a, 1]
-        e12 = xyz[b, 2] - xyz[a, 2]
-        e20 = xyz[c, 0] - xyz[a, 0]
-        e21 = xyz[c, 1] - xyz[a, 1]
-        e22 = xyz[c, 2] - xyz[a, 2]
-        n0 = e11 * e22 - e12 * e21
-        n1 = e12 * e20 - e10 * e22
-        n2 = e10 * e21 - e11 * e20
+        n0, n1, n2 = _edges(xyz, triangles, t)[6:]
         norm = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
         n0, n1, n2 = n0 / norm, n1 / norm, n2 / norm
         triangle[i] = t
