@@ -424,6 +424,10 @@ class SlidingContacts:
     def _flatten(self, pairings: list[Pairing]) -> _Flat:
         """The pairings flat over the families (not collective)."""
         fam = list(zip(self.families, pairings, self._slot_s, strict=True))
+        if not fam:
+            z = np.zeros((0, 3))
+            none = np.zeros(0, dtype=bool)
+            return _Flat(np.zeros(0, np.int64), np.zeros((0, 3), np.int64), z, z, none, none)
         return _Flat(
             np.concatenate(self._slot_p).astype(np.int64),
             np.concatenate(
@@ -471,17 +475,11 @@ class SlidingContacts:
         U = self._current(u) - self.X
         return self._split(self._flat, U, self._flat.paired)[1]
 
-    def drift(self, x: FloatArray, projected: dict[int, Pairing] | None = None) -> float:
-        """The largest tangential drift of a point over its triangle since its pairing (m)
-        at the current coordinates ``x`` of :attr:`ids`; +inf when a point that acts on a
-        vertex has another allowed vertex nearer. ``projected``: the families of such points
-        already projected at ``x`` (:meth:`_vertex_projections`), by index. Not collective."""
-        if projected is None:
-            projected = self._vertex_projections(x)
-        return self._drift(self._tangential(x), projected)
-
     def _drift(self, tangential: FloatArray, projected: dict[int, Pairing]) -> float:
-        """:meth:`drift` from the points' tangential offsets now."""
+        """The largest tangential drift of a point over its triangle since its pairing (m),
+        from the points' tangential offsets now; +inf when a point that acts on a vertex has
+        another allowed vertex nearer. ``projected``: the families of such points projected
+        now (:meth:`_vertex_projections`), by index. Not collective."""
         d = tangential - (self.offsets if self.offsets is not None else 0.0)
         worst = float(np.sqrt(np.max(np.einsum("pj,pj->p", d, d), initial=0.0)))
         for j, now in projected.items():
