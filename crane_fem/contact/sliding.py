@@ -461,12 +461,6 @@ class SlidingContacts:
         )
         return along, tangential
 
-    def _tangential(self, x: FloatArray) -> FloatArray:
-        """Each point's tangential offset (p_total, 3) over its current pairing at the
-        coordinates ``x``: the tangential part of x_p − Σ ξ_i x_i (zeros where unpaired or on a
-        vertex by choice). Not collective."""
-        return self._split(self._flat, x)[1]
-
     def slip(self, u: FloatArray) -> FloatArray:
         """Each point's slip over its surface (p_total, 3), m: the tangential part of
         u_p − Σ ξ_i u_i, its displacement less the surface's where it now touches, on its
@@ -503,7 +497,11 @@ class SlidingContacts:
         """Each point's distance n·(x_p − Σ ξ_i x_i) + c_p for the pairings ``flat`` at the
         coordinates ``x`` of :attr:`ids`, :data:`OPEN_GAP` where unpaired (not
         collective)."""
-        return np.where(flat.paired, self._split(flat, x)[0] + self._offset, OPEN_GAP)
+        return self._distances(flat, self._split(flat, x)[0])
+
+    def _distances(self, flat: _Flat, along: FloatArray) -> FloatArray:
+        """:meth:`_gaps` from the points' components along their normals (:meth:`_split`)."""
+        return np.where(flat.paired, along + self._offset, OPEN_GAP)
 
     def update(self, zone: Any, t: float) -> bool:
         """Before a macro step (collective): once the points slide, set the gaps to the
@@ -530,14 +528,14 @@ class SlidingContacts:
         exact = np.concatenate([pr.gap for pr in fresh]) + self._offset
         # A point projecting onto no triangle (an overhang across) keeps its rows' distance
         # until they are paired again.
-        now = np.where(self._flat.paired, along + self._offset, OPEN_GAP)
+        now = self._distances(self._flat, along)
         exact = np.where(exact < OPEN_GAP, exact, now)
         repair = drift > self.threshold
         if repair:
             self.pairings = fresh
-            self.offsets = self._tangential(x)
+            along, self.offsets = self._split(self._flat, x)
             self.repairs += 1
-            now = self._gaps(self._flat, x)
+            now = self._distances(self._flat, along)
         # g0 + L u = exact, with L u = (the rows' distance now) − (theirs at X).
         ref = self._ref_gaps
         self.g0 = np.where(ref < OPEN_GAP, exact - (now - ref), OPEN_GAP)
