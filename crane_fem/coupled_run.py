@@ -33,7 +33,7 @@ from crane_fem.monitors import HistoryRows, Monitors, create_monitors
 from crane_fem.pipeline import Simulation, create_simulation
 from crane_fem.run_record import RunResult, StopRequest, finish_summary, progress_bar
 from crane_fem.scenario import Scenario
-from crane_fem.subdomains import Subdomain, cell_function
+from crane_fem.subdomains import Subdomain
 
 __all__ = ["run_coupled"]
 
@@ -53,23 +53,15 @@ def _xdmf_writers(
     paths = [out / f"solution_{sub.name.replace('+', '_')}.xdmf" for sub in subs]
     if resume is not None:
         resume_series(resume[0], out, paths, resume[1], sim.mesh.comm)
-    mat = sc.materials[0][1]
-    cells = sim.mesh.materials
     for sub, path in zip(subs, paths, strict=True):
         is_e = sub is md.explicit
         names = ["displacement", "velocity"] + (["contact_force"] if is_e else [])
-        elastic: tuple[Any, Any] = (mat.E, mat.nu)
-        if cells is not None:  # per-group materials: each cell's E and ν
-            elastic = (
-                cell_function(sub.submesh, cells.E[sub.parent_cells]),
-                cell_function(sub.submesh, cells.nu[sub.parent_cells]),
-            )
         series = XDMFSeries(
             path,
             sub.V,
             names,
             constants={"subdomain": 0.0 if is_e else 1.0},
-            von_mises=elastic if sub.bs == 3 else None,
+            stress=sub.stress() if sub.bs > 1 else None,
             append=resume is not None,
         )
         writers.append((sub, series))

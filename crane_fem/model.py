@@ -1,4 +1,5 @@
-"""Structural model: assembled stiffness, lumped mass, Rayleigh damping and fixed DOFs."""
+"""Structural model: assembled stiffness, lumped mass, Rayleigh damping and fixed DOFs, of any
+element formulation (crane_fem.formulations)."""
 
 from __future__ import annotations
 
@@ -10,11 +11,12 @@ import dolfinx
 import dolfinx.fem.petsc
 import numpy as np
 import numpy.typing as npt
-import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
-__all__ = ["StructuralModel", "assemble_bar_operators", "assemble_structure"]
+from crane_fem.formulations import CellFields, Formulation
+
+__all__ = ["LoadFunction", "StructuralModel", "assemble_operators", "fixed_conditions"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -82,88 +84,69 @@ def _lumped(vec: PETSc.Vec) -> FloatArray:
     return np.array(vec.array_r, dtype=np.float64)
 
 
-def assemble_bar_operators(
-    V: dolfinx.fem.FunctionSpace,
-    E: float,
-    rho: float,
-    area: dolfinx.fem.Function,
-    fixed_dofs: npt.NDArray[np.int32],
-) -> tuple[PETSc.Mat, FloatArray]:
-    """Assemble the axial-bar stiffness ∫ E A u' w' dx and the row-sum lumped mass ∫ ρ A w dx.
-
-    For P1 the row sum of the consistent mass equals nodal (GLL) quadrature: the element mass
-    ρ A h is split in halves onto its two nodes. Collective over the mesh communicator.
-
-    Returns:
-        ``(K, mass)``: the caller owns ``K``; ``mass`` holds the owned DOFs only.
-    """
-    u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
-    dx = ufl.dx(domain=V.mesh)
-    k_form = dolfinx.fem.form(E * area * ufl.inner(ufl.grad(u), ufl.grad(w)) * dx)
-    m_form = dolfinx.fem.form(rho * area * w * dx)
-    # Every rank builds the (possibly empty) condition: assembly with bcs is collective.
-    zero = dolfinx.fem.Constant(V.mesh, np.float64(0.0))
-    bcs = [dolfinx.fem.dirichletbc(zero, fixed_dofs, V)]
-    K = dolfinx.fem.petsc.assemble_matrix(k_form, bcs=bcs, diag=1.0)
-    K.assemble()
-    mvec = dolfinx.fem.petsc.assemble_vector(m_form)
-    mass = _lumped(mvec)
-    mvec.destroy()
-    return K, mass
-
-
 LoadFunction = Callable[[float], FloatArray]
 
 
-def assemble_structure(
-    V: dolfinx.fem.FunctionSpace,
-    E: float | dolfinx.fem.Function,
-    nu: float | dolfinx.fem.Function,
-    rho: float | dolfinx.fem.Function,
-    area: dolfinx.fem.Function | float,
-    fixed_dofs: npt.NDArray[np.int32],
-    consistent_mass: bool = False,
-) -> tuple[PETSc.Mat, FloatArray, PETSc.Mat | None]:
-    """Stiffness, row-sum lumped mass and (optionally) consistent mass of a linear structure.
+def fixed_conditions(
+    V: dolfinx.fem.FunctionSpace, fixed_dofs: npt.NDArray[np.int64]
+) -> list[dolfinx.fem.DirichletBC]:
+    """Zero Dirichlet conditions on the local DOFs ``fixed_dofs`` (block × bs + component,
+    owned and ghost): one condition on their blocks where every component of each is fixed
+    (a clamped vertex), else one per component (a beam's pinned vertex: translations only)."""
+    bs = V.dofmap.index_map_bs
+    fixed_dofs = np.asarray(fixed_dofs, dtype=np.int64)
+    if bs == 1:
+        zero = dolfinx.fem.Constant(V.mesh, np.float64(0.0))
+        return [dolfinx.fem.dirichletbc(zero, fixed_dofs.astype(np.int32), V)]
+    comp = [np.sort(fixed_dofs[fixed_dofs % bs == c] // bs) for c in range(bs)]
+    if all(np.array_equal(comp[0], c) for c in comp[1:]):
+        # dirichletbc on a blocked space takes block indices.
+        zero = dolfinx.fem.Constant(V.mesh, np.zeros(bs, dtype=np.float64))
+        return [dolfinx.fem.dirichletbc(zero, comp[0].astype(np.int32), V)]
+    return [
+        dolfinx.fem.dirichletbc(np.float64(0.0), (blocks * bs + c).astype(np.int32), V.sub(c))
+        for c, blocks in enumerate(comp)
+    ]
 
-    A scalar space is an axial bar (∫ E A u' w' dx, mass ρ A); a vector space is 3D linear
-    elasticity (E, ν and the mass's ρ: constants or cellwise DG0 functions). Fixed DOFs
-    (local, owned and ghost) get zero rows/columns, unit diagonal in K and M. Collective over
-    the mesh communicator.
+
+def assemble_operators(
+    formulation: Formulation,
+    V: dolfinx.fem.FunctionSpace,
+    fields: CellFields,
+    fixed_dofs: npt.NDArray[np.int64],
+    consistent_mass: bool = False,
+    point_mass: FloatArray | None = None,
+) -> tuple[PETSc.Mat, FloatArray, PETSc.Mat | None]:
+    """Stiffness, lumped mass and (optionally) consistent mass of a linear structure of one
+    formulation (crane_fem.formulations). Fixed DOFs (local, owned and ghost: block × bs +
+    component) get zero rows/columns and a unit diagonal in K and M. ``point_mass`` (owned
+    DOFs, kg or kg·m²) is added to both masses' diagonals: masses and rotary inertias carried
+    at nodes. Collective over the mesh communicator.
 
     Returns:
         ``(K, lumped, M)``: the caller owns ``K`` and ``M``; ``lumped`` holds owned DOFs only.
     """
-    u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
-    dx = ufl.dx(domain=V.mesh)
-    if V.value_size == 1:
-        k = E * area * ufl.inner(ufl.grad(u), ufl.grad(w)) * dx
-        m = rho * area * ufl.inner(u, w) * dx
-        m_row = rho * area * w * dx
-        zero = dolfinx.fem.Constant(V.mesh, np.float64(0.0))
-    else:
-        mu = E / (2.0 * (1.0 + nu))
-        lmbda = E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
-
-        def eps(z: ufl.Argument) -> ufl.core.expr.Expr:
-            return ufl.sym(ufl.grad(z))
-
-        def sigma(z: ufl.Argument) -> ufl.core.expr.Expr:
-            return 2.0 * mu * eps(z) + lmbda * ufl.tr(eps(z)) * ufl.Identity(len(z))
-
-        k = ufl.inner(sigma(u), eps(w)) * dx
-        m = rho * ufl.inner(u, w) * dx
-        ones = ufl.as_vector([1.0] * V.value_size)
-        m_row = rho * ufl.inner(ones, w) * dx
-        zero = dolfinx.fem.Constant(V.mesh, np.zeros(V.value_size, dtype=np.float64))
-    bcs = [dolfinx.fem.dirichletbc(zero, fixed_dofs, V)]
-    K = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(k), bcs=bcs, diag=1.0)
+    forms = formulation.forms(V, fields)
+    bcs = fixed_conditions(V, fixed_dofs)
+    K = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(forms.stiffness), bcs=bcs, diag=1.0)
     K.assemble()
-    mvec = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(m_row))
+    mvec = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(forms.lumped))
     lumped = _lumped(mvec)
     mvec.destroy()
     M = None
     if consistent_mass:
-        M = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(m), bcs=bcs, diag=1.0)
+        M = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(forms.mass), bcs=bcs, diag=1.0)
         M.assemble()
+    if point_mass is not None and np.any(point_mass != 0.0):
+        n_own = lumped.size
+        fixed = np.zeros(n_own, dtype=bool)
+        own = fixed_dofs[fixed_dofs < n_own]
+        fixed[own] = True
+        added = np.where(fixed, 0.0, point_mass)
+        lumped = lumped + added
+        if M is not None:
+            vec = M.createVecRight()
+            vec.array[:] = added
+            M.setDiagonal(vec, addv=True)  # addv=True: ADD_VALUES
+            vec.destroy()
     return K, lumped, M

@@ -11,9 +11,10 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from crane_fem.contact import ContactSet
+from crane_fem.formulations import AxialBar, CellFields
 from crane_fem.loading.body import AffineLoad
 from crane_fem.mesh import BarMesh, Segment, create_bar_mesh
-from crane_fem.model import StructuralModel, assemble_bar_operators
+from crane_fem.model import StructuralModel, assemble_operators
 from crane_fem.scenario import BarModel, Contact, Scenario
 
 __all__ = ["Body", "Problem", "create_problem"]
@@ -90,8 +91,10 @@ def create_problem(comm: MPI.Comm, sc: Scenario) -> Problem:
     fixed_local = (
         np.flatnonzero(node == first_right) if mdl.clamp == "right" else np.zeros(0, dtype=np.int64)
     )
-    K, mass = assemble_bar_operators(
-        V, sc.uniform_material.E, sc.uniform_material.rho, area, fixed_local.astype(np.int32)
+    mat = sc.uniform_material
+    cell_area = np.asarray(area.x.array[area.function_space.dofmap.list[:, 0]])
+    K, mass, _ = assemble_operators(
+        AxialBar(), V, CellFields(mat.E, mat.nu, mat.rho, cell_area), fixed_local
     )
     fixed = np.zeros(n_own, dtype=bool)
     fixed[fixed_local[fixed_local < n_own]] = True

@@ -14,13 +14,12 @@ from __future__ import annotations
 
 from typing import Any
 
-import dolfinx.fem
 import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 from petsc4py import PETSc
 
-from crane_fem.model import assemble_structure
+from crane_fem.model import assemble_operators
 from crane_fem.subdomains import Subdomain
 
 __all__ = ["SupportReactions", "face_labels"]
@@ -67,8 +66,6 @@ class SupportReactions:
 
     Args:
         sub: the subdomain (its ``model.fixed`` marks the clamped owned DOFs).
-        E, nu, rho: the material (ρ of the cells next to the faces): constants or each
-            cell's (DG0 functions on the subdomain's mesh).
         rayleigh: (α, β) of C = α M + β K.
         gravity: the gravity vector (m/s²).
         faces: the global parent vertex ids of each face (a gmsh model's ``[[support]]``
@@ -79,9 +76,6 @@ class SupportReactions:
     def __init__(
         self,
         sub: Subdomain,
-        E: float | dolfinx.fem.Function,
-        nu: float | dolfinx.fem.Function,
-        rho: float | dolfinx.fem.Function,
         rayleigh: tuple[float, float],
         gravity: FloatArray | list[float],
         faces: list[npt.NDArray[np.int64]] | None = None,
@@ -91,12 +85,13 @@ class SupportReactions:
         self.comm = sub.submesh.comm
         self.bs = bs
         self.alpha, self.beta = rayleigh
-        self.gravity = np.asarray(gravity, dtype=np.float64)[:bs]
+        self.translations = sub.formulation.translations
+        self.gravity = np.asarray(gravity, dtype=np.float64)[: self.translations]
         n_own = sub.model.n_owned
         start = V.dofmap.index_map.local_range[0] * bs
         self.rows = np.flatnonzero(sub.model.fixed).astype(np.int32)
-        none = np.zeros(0, dtype=np.int32)
-        K, _, M = assemble_structure(V, E, nu, rho, 1.0, none, True)
+        none = np.zeros(0, dtype=np.int64)
+        K, _, M = assemble_operators(sub.formulation, V, sub.fields, none, True)
         assert M is not None
         isrow = PETSc.IS().createGeneral(self.rows + start, comm=self.comm)
         iscol = PETSc.IS().createStride(n_own, first=start, step=1, comm=self.comm)
@@ -107,7 +102,10 @@ class SupportReactions:
         self._x = self.K.createVecRight()
         self._r = self.K.createVecLeft()
         xyz = V.tabulate_dof_coordinates()[: sub.n_owned_blocks]
-        blocks = self.rows[::bs] // bs if bs > 1 else self.rows
+        # Each fixed row's block and component (a beam's pinned block fixes 3 of its 6).
+        self._row_block = self.rows // bs
+        self._row_comp = self.rows % bs
+        blocks = np.unique(self._row_block)
         if faces is None:
             labels, self.centres = face_labels(xyz[blocks], self.comm)
         else:
@@ -121,7 +119,7 @@ class SupportReactions:
             sums = self.comm.allreduce(sums, op=MPI.SUM)
             self.centres = sums[:, :3] / np.maximum(sums[:, 3:], 1.0)
         self.n_faces = self.centres.shape[0]
-        self.labels = labels
+        self.labels = labels[np.searchsorted(blocks, self._row_block)]
         self.peak = np.zeros(self.n_faces)
         self.t_peak = np.zeros(self.n_faces)
         self.peak_vertical = np.zeros(self.n_faces)
@@ -145,10 +143,14 @@ class SupportReactions:
         else:
             a = (v - self._v_prev) / (t - self._t_prev)
         self._v_prev, self._t_prev = v.copy(), t
-        body = np.tile(np.asarray(ground, dtype=np.float64)[:bs] - self.gravity, v.size // bs)
-        r = self._apply(self.K, u + self.beta * v) + self._apply(self.M, a + body + self.alpha * v)
+        body = np.zeros((v.size // bs, bs))
+        n_t = self.translations
+        body[:, :n_t] = np.asarray(ground, dtype=np.float64)[:n_t] - self.gravity
+        r = self._apply(self.K, u + self.beta * v) + self._apply(
+            self.M, a + body.ravel() + self.alpha * v
+        )
         local = np.zeros((self.n_faces, bs))
-        np.add.at(local, self.labels, r.reshape(-1, bs))
+        np.add.at(local, (self.labels, self._row_comp), r)
         return np.asarray(self.comm.allreduce(local, op=MPI.SUM), dtype=np.float64)
 
     def update(self, t: float, u: FloatArray, v: FloatArray, ground: FloatArray) -> FloatArray:
@@ -157,10 +159,11 @@ class SupportReactions:
         f = self.forces(t, u, v, ground)
         if self.initial is None:
             self.initial = f
-        norm = np.linalg.norm(f, axis=1)
+        n_t = self.translations
+        norm = np.linalg.norm(f[:, :n_t], axis=1)
         better = norm > self.peak
         self.peak[better], self.t_peak[better] = norm[better], t
-        vert = np.abs(f[:, -1])
+        vert = np.abs(f[:, n_t - 1])
         better = vert > self.peak_vertical
         self.peak_vertical[better], self.t_vertical[better] = vert[better], t
         return f
@@ -186,19 +189,24 @@ class SupportReactions:
 
     def table(self) -> dict[str, dict[str, Any]]:
         """Per face (numbered from 1): its centre, the peak of the force's magnitude and of its
-        vertical component with their times, and the force at the first evaluation (N)."""
+        vertical component with their times, and the force at the first evaluation (N; a
+        beam's support also its moment, N·m)."""
         init = self.initial if self.initial is not None else np.zeros((self.n_faces, self.bs))
-        return {
-            str(k + 1): {
+        n_t = self.translations
+        out: dict[str, dict[str, Any]] = {}
+        for k in range(self.n_faces):
+            row: dict[str, Any] = {
                 "centre_m": [float(c) for c in self.centres[k]],
                 "peak_force_N": float(self.peak[k]),
                 "peak_force_time_s": float(self.t_peak[k]),
                 "peak_vertical_N": float(self.peak_vertical[k]),
                 "peak_vertical_time_s": float(self.t_vertical[k]),
-                "initial_force_N": [float(x) for x in init[k]],
+                "initial_force_N": [float(x) for x in init[k, :n_t]],
             }
-            for k in range(self.n_faces)
-        }
+            if self.bs > n_t:
+                row["initial_moment_Nm"] = [float(x) for x in init[k, n_t:]]
+            out[str(k + 1)] = row
+        return out
 
     def destroy(self) -> None:
         for obj in (self.K, self.M, self._x, self._r):

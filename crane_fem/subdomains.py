@@ -1,4 +1,5 @@
-"""Subdomains: a dolfinx submesh per group of cells, its space, operators and DOF maps."""
+"""Subdomains: a dolfinx submesh per group of cells, its formulation's space and operators,
+and its DOF maps."""
 
 from __future__ import annotations
 
@@ -10,17 +11,19 @@ import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
 
+from crane_fem.formulations import CellFields, Formulation, SolidP1
 from crane_fem.geometry.tagged import TaggedMesh
-from crane_fem.model import StructuralModel, assemble_structure
+from crane_fem.model import StructuralModel, assemble_operators
+from crane_fem.stress import CellStress
 
-__all__ = ["Subdomain", "cell_function", "create_subdomain"]
+__all__ = ["PointMasses", "Subdomain", "create_subdomain", "global_ids"]
 
 IntArray = npt.NDArray[np.int64]
 
 
 @dataclass
 class Subdomain:
-    """One subdomain: its submesh, P1 space, model and the parent vertex of each DOF block.
+    """One subdomain: its submesh, space, model and the parent vertex of each DOF block.
 
     ``parent_vertex[b]`` is the global parent-mesh vertex index of local DOF block ``b``
     (owned and ghost), the key by which interface and contact DOFs are matched across
@@ -37,6 +40,14 @@ class Subdomain:
     fixed_vertices: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     #: The local parent cell of each local submesh cell (owned, then ghost).
     parent_cells: npt.NDArray[np.int32] = field(default_factory=lambda: np.zeros(0, np.int32))
+    #: The element formulation of its cells, and their material and section (per local
+    #: submesh cell: owned, then ghost).
+    formulation: Formulation = field(default_factory=SolidP1)
+    fields: CellFields = field(default_factory=lambda: CellFields(1.0, 0.0, 1.0))
+
+    def stress(self) -> CellStress:
+        """Its formulation's stress recovery on its space (collective)."""
+        return self.formulation.stress(self.V, self.fields)  # type: ignore[return-value]
 
     @property
     def bs(self) -> int:
@@ -85,11 +96,14 @@ def _vertex_to_block(mesh: dolfinx.mesh.Mesh, V: dolfinx.fem.FunctionSpace) -> I
     return out
 
 
-def cell_function(msh: dolfinx.mesh.Mesh, values: npt.NDArray[np.float64]) -> dolfinx.fem.Function:
-    """A DG0 function on ``msh`` of the given value per local cell (owned and ghost)."""
-    f = dolfinx.fem.Function(dolfinx.fem.functionspace(msh, ("DG", 0)))
-    f.x.array[f.function_space.dofmap.list[:, 0]] = values
-    return f
+@dataclass(frozen=True)
+class PointMasses:
+    """Masses and rotary inertias carried at vertices: ``values[k]`` (bs,) on the DOFs of the
+    global parent vertex ``vertices[k]`` (sorted unique; kg on translations, kg·m² on
+    rotations)."""
+
+    vertices: IntArray
+    values: npt.NDArray[np.float64]
 
 
 def create_subdomain(
@@ -97,31 +111,28 @@ def create_subdomain(
     name: str,
     scheme: str,
     cells: npt.NDArray[np.int32],
-    E: float,
-    nu: float,
-    rho: float,
-    area: float,
+    formulation: Formulation,
+    fields: CellFields,
     rayleigh: tuple[float, float],
     fixed_vertices: IntArray,
     consistent_mass: bool,
-    cell_density: npt.NDArray[np.float64] | None = None,
-    cell_elastic: tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]] | None = None,
+    pinned_vertices: IntArray | None = None,
+    point_masses: PointMasses | None = None,
 ) -> Subdomain:
     """Build the subdomain of ``cells`` (owned parent cells; collective over the mesh comm).
 
     Args:
+        formulation: the element formulation (crane_fem.formulations).
+        fields: the material and section of every local parent cell (owned and ghost).
         fixed_vertices: global parent vertex ids that are clamped (all components).
         consistent_mass: also assemble the consistent mass matrix (Newmark).
-        cell_density: density of every local parent cell (owned and ghost), overriding
-            ``rho``; None for a uniform ``rho``.
-        cell_elastic: (E, ν) of every local parent cell, overriding ``E`` and ``nu``; None
-            for uniform ones.
+        pinned_vertices: global parent vertex ids whose translations only are fixed.
+        point_masses: masses carried at vertices, added to both masses.
     """
     parent = tagged.mesh
     tdim = parent.topology.dim
     sub, cell_map, vertex_map, _ = dolfinx.mesh.create_submesh(parent, tdim, cells)
-    gdim = parent.geometry.dim
-    V = dolfinx.fem.functionspace(sub, ("Lagrange", 1) if tdim == 1 else ("Lagrange", 1, (gdim,)))
+    V = formulation.space(sub)
     n_sub_v = sub.topology.index_map(0).size_local + sub.topology.index_map(0).num_ghosts
     parent_local = vertex_map.sub_topology_to_topology(
         np.arange(n_sub_v, dtype=np.int32), inverse=False
@@ -137,31 +148,42 @@ def create_subdomain(
 
     bs = V.dofmap.index_map_bs
     fixed_blocks = np.flatnonzero(np.isin(parent_vertex, fixed_vertices))
-    fixed_dofs = (fixed_blocks[:, None] * bs + np.arange(bs)[None, :]).ravel().astype(np.int32)
-    if bs > 1:
-        # dirichletbc on a blocked space takes block indices.
-        bc_dofs = fixed_blocks.astype(np.int32)
-    else:
-        bc_dofs = fixed_dofs
-    density: float | dolfinx.fem.Function = rho
+    fixed_dofs = (fixed_blocks[:, None] * bs + np.arange(bs)[None, :]).ravel()
+    if pinned_vertices is not None and pinned_vertices.size:
+        pinned = np.flatnonzero(np.isin(parent_vertex, pinned_vertices))
+        comps = np.arange(formulation.translations)
+        fixed_dofs = np.union1d(fixed_dofs, (pinned[:, None] * bs + comps[None, :]).ravel())
+    fixed_dofs = fixed_dofs.astype(np.int64)
     imap = sub.topology.index_map(tdim)
     sub_cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
     parent_cells = np.asarray(cell_map.sub_topology_to_topology(sub_cells, inverse=False))
-    if cell_density is not None:
-        density = dolfinx.fem.Function(dolfinx.fem.functionspace(sub, ("DG", 0)))
-        dofs = density.function_space.dofmap.list[:, 0]  # one DOF per cell, row = cell
-        density.x.array[dofs] = cell_density[parent_cells]
-    young: float | dolfinx.fem.Function = E
-    poisson: float | dolfinx.fem.Function = nu
-    if cell_elastic is not None:
-        young, poisson = (cell_function(sub, values[parent_cells]) for values in cell_elastic)
-    K, lumped, M = assemble_structure(V, young, poisson, density, area, bc_dofs, consistent_mass)
     n_own = V.dofmap.index_map.size_local * bs
+    extra = None
+    if point_masses is not None and point_masses.vertices.size:
+        owned = parent_vertex[: V.dofmap.index_map.size_local]
+        at = np.flatnonzero(np.isin(owned, point_masses.vertices))
+        extra = np.zeros(n_own)
+        rows = np.searchsorted(point_masses.vertices, owned[at])
+        extra.reshape(-1, bs)[at] = point_masses.values[rows]
+    own_fields = fields.restrict(parent_cells)
+    K, lumped, M = assemble_operators(
+        formulation, V, own_fields, fixed_dofs, consistent_mass, extra
+    )
     fixed = np.zeros(n_own, dtype=bool)
     fixed[fixed_dofs[fixed_dofs < n_own]] = True
     model = StructuralModel(V, K, lumped, fixed, rayleigh[0], rayleigh[1], M)
     return Subdomain(
-        name, scheme, sub, V, model, parent_vertex, vertex_global, fixed_vertices, parent_cells
+        name,
+        scheme,
+        sub,
+        V,
+        model,
+        parent_vertex,
+        vertex_global,
+        fixed_vertices,
+        parent_cells,
+        formulation,
+        own_fields,
     )
 
 

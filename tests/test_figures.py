@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import crane_fem.plotting.wheels as wheels_module
+from crane_fem.formulations import SolidVonMises
 from crane_fem.plotting import (
     IncompleteRunWarning,
     Run,
@@ -252,7 +253,8 @@ def _write_xdmf_run(path: Path, times: list[float], summary: dict[str, Any]) -> 
     )
     V = dolfinx.fem.functionspace(mesh, ("Lagrange", 1, (3,)))
     x = V.tabulate_dof_coordinates()[: V.dofmap.index_map.size_local]
-    with XDMFSeries(path / "solution_all.xdmf", V, ["displacement"], von_mises=(2e11, 0.3)) as w:
+    vm = SolidVonMises(V, 2e11, 0.3)
+    with XDMFSeries(path / "solution_all.xdmf", V, ["displacement"], stress=vm) as w:
         for t in times:
             u = np.zeros((x.shape[0], 3))
             u[:, 2] = -t * 1e-3 * x[:, 0] ** 2

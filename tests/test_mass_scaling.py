@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from mpi4py import MPI
 
+from crane_fem.formulations import CellFields, SolidP1
 from crane_fem.mass_scaling import scale_density
-from crane_fem.model import StructuralModel, assemble_structure
+from crane_fem.model import StructuralModel, assemble_operators
 from crane_fem.stability import max_frequency
-from crane_fem.subdomains import cell_function
 
 E, NU, RHO = 2.1e11, 0.3, 7800.0
 
@@ -38,8 +38,8 @@ def _thin_layer_box(comm: MPI.Comm) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.Mes
 def _critical_step(msh: dolfinx.mesh.Mesh, rho: np.ndarray) -> tuple[float, float]:
     """2/ω_max of the free mesh (SLEPc) and its total lumped mass."""
     V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (3,)))
-    K, lumped, _ = assemble_structure(
-        V, E, NU, cell_function(msh, rho), 1.0, np.zeros(0, dtype=np.int32)
+    K, lumped, _ = assemble_operators(
+        SolidP1(), V, CellFields(E, NU, rho), np.zeros(0, dtype=np.int64)
     )
     model = StructuralModel(V, K, lumped, np.zeros(lumped.size, dtype=bool))
     try:

@@ -10,6 +10,7 @@ import pytest
 from conftest import COMM
 from mpi4py import MPI
 
+from crane_fem.formulations import SolidVonMises
 from crane_fem.io.xdmf import XDMFSeries, read_xdmf, truncate_xdmf, xdmf_frames
 
 E, NU = 2.0e11, 0.3
@@ -44,7 +45,8 @@ def _write(comm: MPI.Comm, path: Path) -> None:
     V = dolfinx.fem.functionspace(mesh, ("Lagrange", 1, (3,)))
     x = V.tabulate_dof_coordinates()[: V.dofmap.index_map.size_local]
     names = ["displacement", "velocity", "contact_force"]
-    with XDMFSeries(path, V, names, constants={"subdomain": 1.0}, von_mises=(E, NU)) as w:
+    stress = SolidVonMises(V, E, NU)
+    with XDMFSeries(path, V, names, constants={"subdomain": 1.0}, stress=stress) as w:
         for t in TIMES:
             w.write(t, _fields(x, t))
 
@@ -128,7 +130,7 @@ def test_truncated_series_continues(shared_tmp: Path) -> None:
     x = V.tabulate_dof_coordinates()[: V.dofmap.index_map.size_local]
     names = ["displacement", "velocity", "contact_force"]
     with XDMFSeries(
-        path, V, names, constants={"subdomain": 1.0}, von_mises=(E, NU), append=True
+        path, V, names, constants={"subdomain": 1.0}, stress=SolidVonMises(V, E, NU), append=True
     ) as w:
         w.write(2.0, _fields(x, 2.0))
     COMM.barrier()

@@ -29,7 +29,8 @@ import numpy.typing as npt
 from mpi4py import MPI
 from mpi4py.util.dtlib import from_numpy_dtype
 
-from crane_fem.stress import VonMises
+from crane_fem.formulations import SECTION_FORCES
+from crane_fem.stress import CellStress
 
 __all__ = ["XDMFSeries", "read_xdmf", "truncate_xdmf", "xdmf_frames"]
 
@@ -147,10 +148,11 @@ class XDMFSeries:
     alone writes the files (h5py). Fields are given as owned-DOF arrays and scattered to
     ghosts before they are read at the owned mesh nodes; every time must give every name.
     Optional cellwise (DG0) fields: ``constants`` are written once and referenced at every
-    time (e.g. the subdomain tag, so ParaView can colour by it at any time), and
-    ``von_mises = (E, ν)`` (constants, or each cell's as DG0 functions on ``V``'s mesh) adds
-    the von Mises stress (Pa) of the ``displacement`` field
-    (linear elasticity, evaluated per cell; P1 strains are constant in a tetrahedron).
+    time (e.g. the subdomain tag, so ParaView can colour by it at any time), and ``stress``
+    (a formulation's stress recovery on ``V``, crane_fem.formulations) adds the von Mises
+    stress (Pa) of the ``displacement`` field per cell, and a beam's section forces (``N``,
+    ``V1``, ``V2`` in N, ``T``, ``M1``, ``M2`` in N·m). A beam's node fields (6 components)
+    are written as their translations (``<name>``) and rotations (``<name>_rotation``).
     ``append``: continue the series already in ``path`` (a restarted run, after
     :func:`truncate_xdmf`) rather than start a new file.
 
@@ -165,7 +167,7 @@ class XDMFSeries:
         V: dolfinx.fem.FunctionSpace,
         names: list[str],
         constants: dict[str, float] | None = None,
-        von_mises: tuple[Any, Any] | None = None,
+        stress: CellStress | None = None,
         append: bool = False,
     ) -> None:
         mesh = V.mesh
@@ -186,11 +188,10 @@ class XDMFSeries:
         self._node_dof = node_dof[: self._order.n_nodes]
         self._functions = {name: dolfinx.fem.Function(V, name=name) for name in names}
         self._constants = dict(constants or {})
-        self._vm: VonMises | None = None
+        self._vm = stress
         self._cell_dof = np.zeros(0, dtype=np.int64)
-        if von_mises is not None:
-            self._vm = VonMises(V, *von_mises)
-            W = self._vm.field.function_space
+        if stress is not None:
+            W = stress.field.function_space  # type: ignore[attr-defined]
             self._cell_dof = np.asarray(W.dofmap.list)[: self._order.n_cells, 0]
         self._h5: Any = None
         self._xml: Any = None
@@ -307,8 +308,11 @@ class XDMFSeries:
         cell_rows = None
         if self._vm is not None:
             self._vm.evaluate(fields["displacement"])
-            cell_rows = self._vm.field.x.array[self._cell_dof].reshape(-1, 1)
-            cell_rows = self._order.cells(self._comm, cell_rows)
+            rows = self._vm.field.x.array[self._cell_dof].reshape(-1, 1)  # type: ignore[attr-defined]
+            forces = getattr(self._vm, "last_forces", None)
+            if forces is not None:  # a beam's section forces, of the same evaluation
+                rows = np.hstack([rows, forces])
+            cell_rows = self._order.cells(self._comm, rows)
         error = None
         if self._comm.rank == 0:
             assert nodes is not None
@@ -320,23 +324,37 @@ class XDMFSeries:
         if error is not None:
             raise OSError(error)
 
+    def _node_fields(self) -> list[tuple[str, int, int]]:
+        """(name, first column, components) of each node field in the file: a beam's
+        translations and rotations apart."""
+        bs = self._bs
+        out = []
+        for i, name in enumerate(self.names):
+            if bs == 6:
+                out += [(name, i * bs, 3), (f"{name}_rotation", i * bs + 3, 3)]
+            else:
+                out.append((name, i * bs, bs))
+        return out
+
     def _write_frame(self, t: float, nodes: npt.NDArray[Any], vm: npt.NDArray[Any] | None) -> None:
         k = self._frames
-        bs = self._bs
 
         def put(dset: str, data: npt.NDArray[Any]) -> None:
             if dset in self._h5:  # a frame a cut run wrote past its checkpoint
                 del self._h5[dset]
             self._h5.create_dataset(dset, data=data)
 
-        for i, name in enumerate(self.names):
-            put(f"Function/{name}/{k}", nodes[:, i * bs : (i + 1) * bs])
+        node_fields = self._node_fields()
+        for name, first, count in node_fields:
+            put(f"Function/{name}/{k}", nodes[:, first : first + count])
         cells = list(self._constants)
         if vm is not None:
-            put(f"Function/von_mises/{k}", vm)
-            cells = ["von_mises", *cells]
+            names = ["von_mises", *SECTION_FORCES[: vm.shape[1] - 1]]
+            for j, name in enumerate(names):
+                put(f"Function/{name}/{k}", vm[:, j : j + 1])
+            cells = [*names, *cells]
         self._h5.flush()
-        grid = self._grid(t, k, [(name, bs) for name in self.names], cells).encode()
+        grid = self._grid(t, k, [(n, c) for n, _, c in node_fields], cells).encode()
         # The XML after the data it references; the tail rewritten after each grid.
         self._xml.seek(self._pos)
         self._xml.write(grid + _TAIL.encode())

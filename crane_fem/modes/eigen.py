@@ -75,7 +75,7 @@ def rigid_inertia(st: ClosedStructure) -> FloatArray:
     out = np.zeros((3, st.free.size))
     x, y = st.M.createVecRight(), st.M.createVecLeft()
     for d in range(3):
-        x.array[:] = (st.free % 3 == d).astype(np.float64)
+        x.array[:] = (st.free % st.bs == d).astype(np.float64)
         st.M.mult(x, y)
         out[d] = y.array_r
     x.destroy()

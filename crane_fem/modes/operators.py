@@ -34,7 +34,9 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from crane_fem.formulations import coefficient
 from crane_fem.pipeline.mesh import MeshStage
+from crane_fem.subdomains import PointMasses
 
 __all__ = ["ClosedStructure", "assemble_closed_structure", "vertex_of_block"]
 
@@ -84,6 +86,9 @@ class ClosedStructure:
     gravity_clamped: FloatArray
     mass_total: float
     faces: tuple[IntArray, ...] = ()
+    #: DOFs per node, and how many of them are translations (a beam's 6 and 3).
+    bs: int = 3
+    translations: int = 3
 
     @property
     def n_free(self) -> int:
@@ -205,42 +210,41 @@ def assemble_closed_structure(
     """
     msh = mesh.tagged.mesh
     comm = msh.comm
-    V = dolfinx.fem.functionspace(msh, ("Lagrange", degree, (3,)))
-    density: dolfinx.fem.Function | dolfinx.fem.Constant
-    if mesh.density is not None:
-        density = dolfinx.fem.Function(dolfinx.fem.functionspace(msh, ("DG", 0)))
-        density.x.array[density.function_space.dofmap.list[:, 0]] = mesh.density
-    else:
-        density = dolfinx.fem.Constant(msh, np.float64(rho))
-    E_: dolfinx.fem.Function | float = E
-    nu_: dolfinx.fem.Function | float = nu
-    cells = getattr(mesh, "materials", None)  # per-group materials, where the stage has them
-    if cells is not None:
-        W = dolfinx.fem.functionspace(msh, ("DG", 0))
-        E_, nu_ = dolfinx.fem.Function(W), dolfinx.fem.Function(W)
-        E_.x.array[W.dofmap.list[:, 0]] = cells.E
-        nu_.x.array[W.dofmap.list[:, 0]] = cells.nu
-    mu = E_ / (2.0 * (1.0 + nu_))
-    lmbda = E_ * nu_ / ((1.0 + nu_) * (1.0 - 2.0 * nu_))
-    u, w = ufl.TrialFunction(V), ufl.TestFunction(V)
-
-    def eps(z: ufl.Argument) -> ufl.core.expr.Expr:
-        return ufl.sym(ufl.grad(z))
-
-    sigma = 2.0 * mu * eps(u) + lmbda * ufl.tr(eps(u)) * ufl.Identity(3)
+    formulation = mesh.formulation
+    fields = mesh.fields
+    if degree == 1:
+        V = formulation.space(msh)
+    else:  # a P2 reference of a solid
+        V = dolfinx.fem.functionspace(msh, ("Lagrange", degree, (3,)))
+    bs = V.dofmap.index_map_bs
+    forms = formulation.forms(V, fields)
+    w = ufl.TestFunction(V)
     dx = ufl.dx(domain=msh)
-    K_all = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(ufl.inner(sigma, eps(w)) * dx))
+    K_all = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(forms.stiffness))
     K_all.assemble()
-    M_all = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(density * ufl.inner(u, w) * dx))
+    M_all = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(forms.mass))
     M_all.assemble()
-    g = dolfinx.fem.Constant(msh, np.asarray(gravity, dtype=np.float64))
-    fvec = dolfinx.fem.petsc.assemble_vector(dolfinx.fem.form(density * ufl.inner(g, w) * dx))
+    density = coefficient(msh, fields.rho)
+    n_t = formulation.translations
+    g = dolfinx.fem.Constant(msh, np.asarray(gravity, dtype=np.float64)[:n_t])
+    w_u = ufl.as_vector([w[i] for i in range(n_t)]) if bs > n_t else w
+    area = fields.section.A if fields.section is not None else 1.0
+    line = coefficient(msh, area)
+    fvec = dolfinx.fem.petsc.assemble_vector(
+        dolfinx.fem.form(density * line * ufl.inner(g, w_u) * dx)
+    )
     fvec.ghostUpdate(addv=True, mode="reverse")  # addv=True: ADD_VALUES
     f_own = np.array(fvec.array_r, dtype=np.float64)
     fvec.destroy()
     mass_total = comm.allreduce(
-        float(np.real(dolfinx.fem.assemble_scalar(dolfinx.fem.form(density * dx)))), op=MPI.SUM
+        float(np.real(dolfinx.fem.assemble_scalar(dolfinx.fem.form(density * line * dx)))),
+        op=MPI.SUM,
     )
+    point = mesh.point_masses
+    if point is not None and point.vertices.size:
+        _add_point_masses(M_all, V, point)
+        f_own += _point_weights(V, point, np.asarray(gravity, dtype=np.float64))
+        mass_total += float(point.values[:, 0].sum())
 
     pairs = np.zeros((0, 2), dtype=np.int64)
     wheel = np.zeros(0, dtype=np.int64)
@@ -263,11 +267,14 @@ def assemble_closed_structure(
     n_own = imap.size_local
     fixed_blocks = _clamped_blocks(V, mesh.fixed_vertices)
     fixed_blocks = fixed_blocks[fixed_blocks < n_own]
-    is_fixed = np.zeros(3 * n_own, dtype=bool)
-    is_fixed[(3 * fixed_blocks[:, None] + np.arange(3)).ravel()] = True
+    is_fixed = np.zeros(bs * n_own, dtype=bool)
+    is_fixed[(bs * fixed_blocks[:, None] + np.arange(bs)).ravel()] = True
+    pinned = _clamped_blocks(V, mesh.pinned_vertices)
+    pinned = pinned[pinned < n_own]
+    is_fixed[(bs * pinned[:, None] + np.arange(n_t)).ravel()] = True
     free = np.flatnonzero(~is_fixed).astype(np.int64)
     clamped = np.flatnonzero(is_fixed).astype(np.int64)
-    start = 3 * imap.local_range[0]
+    start = bs * imap.local_range[0]
     is_free = PETSc.IS().createGeneral((free + start).astype(np.int32), comm=comm)
     is_clamped = PETSc.IS().createGeneral((clamped + start).astype(np.int32), comm=comm)
     K = K_all.createSubMatrix(is_free, is_free)
@@ -291,4 +298,39 @@ def assemble_closed_structure(
         gravity_clamped=f_own[clamped],
         mass_total=float(mass_total),
         faces=mesh.support_faces,
+        bs=bs,
+        translations=n_t,
     )
+
+
+def _point_rows(V: dolfinx.fem.FunctionSpace, point: PointMasses) -> tuple[IntArray, FloatArray]:
+    """The owned DOFs of the point masses' vertices and their values (not collective)."""
+    bs = V.dofmap.index_map_bs
+    n_own = V.dofmap.index_map.size_local
+    vb = vertex_of_block(V)[:n_own]
+    at = np.flatnonzero(np.isin(vb, point.vertices))
+    rows = np.searchsorted(point.vertices, vb[at])
+    dofs = (at[:, None] * bs + np.arange(bs)).ravel()
+    return dofs.astype(np.int64), point.values[rows, :bs].ravel()
+
+
+def _add_point_masses(M: PETSc.Mat, V: dolfinx.fem.FunctionSpace, point: PointMasses) -> None:
+    """The point masses on M's diagonal (collective)."""
+    dofs, values = _point_rows(V, point)
+    vec = M.createVecRight()
+    vec.array[dofs] = values
+    M.setDiagonal(vec, addv=True)  # addv=True: ADD_VALUES
+    vec.destroy()
+
+
+def _point_weights(
+    V: dolfinx.fem.FunctionSpace, point: PointMasses, gravity: FloatArray
+) -> FloatArray:
+    """The point masses' weights on the owned DOFs (N)."""
+    bs = V.dofmap.index_map_bs
+    out = np.zeros(V.dofmap.index_map.size_local * bs)
+    dofs, values = _point_rows(V, point)
+    comp = dofs % bs
+    trans = comp < 3
+    out[dofs[trans]] = values[trans] * gravity[comp[trans]]
+    return out

@@ -10,7 +10,6 @@ import numpy as np
 
 from crane_fem.coupling import MacroRecord
 from crane_fem.pipeline import Simulation
-from crane_fem.stress import VonMises
 
 __all__ = ["BridgeStress"]
 
@@ -36,7 +35,7 @@ class BridgeStress:
         n_parent += tagged.mesh.topology.index_map(tagged.mesh.topology.dim).num_ghosts
         bridge = np.zeros(n_parent, dtype=bool)
         bridge[tagged.cell_tags.indices[tagged.cell_tags.values == tag]] = True
-        self.vm = VonMises(sub.V, sim.scenario.uniform_material.E, sim.scenario.uniform_material.nu)
+        self.vm = sub.stress()
         own = sub.parent_cells[: self.vm.n_cells]
         self.cells = np.flatnonzero(bridge[own]).astype(np.int32)
         # The part of each bridge cell (end carriages, girders, rails: THEORY.md §8 (b) asks

@@ -11,8 +11,7 @@ import numpy as np
 from crane_fem.coupling import MacroRecord
 from crane_fem.pipeline import Simulation
 from crane_fem.scenario import GmshModel
-from crane_fem.stress import VonMises
-from crane_fem.subdomains import Subdomain, cell_function
+from crane_fem.stress import CellStress
 
 __all__ = ["GroupStress", "create_group_stress"]
 
@@ -34,12 +33,11 @@ class GroupStress:
             group_of[
                 tagged.cell_tags.indices[tagged.cell_tags.values == tagged.cell_groups[name]]
             ] = k
-        mat, cells = sim.scenario.materials[0][1], sim.mesh.materials
-        self.sides: list[tuple[str, VonMises, np.ndarray, np.ndarray]] = []
+        self.sides: list[tuple[str, CellStress, np.ndarray, np.ndarray]] = []
         for side, sub in (("explicit", md.explicit), ("implicit", md.implicit)):
             if sub is None:
                 continue
-            vm = VonMises(sub.V, *self._elastic(sub, mat.E, mat.nu, cells))
+            vm = sub.stress()
             own = sub.parent_cells[: vm.n_cells]
             labels = group_of[own]
             sel = np.flatnonzero(labels >= 0).astype(np.int32)
@@ -50,15 +48,6 @@ class GroupStress:
         self.t_peak = np.zeros(n_g)
         self.location = np.zeros((n_g, 3))
         self.last = np.full(n_g, math.nan)
-
-    @staticmethod
-    def _elastic(sub: Subdomain, E: float, nu: float, cells: Any) -> tuple[Any, Any]:
-        if cells is None:
-            return E, nu
-        return (
-            cell_function(sub.submesh, cells.E[sub.parent_cells]),
-            cell_function(sub.submesh, cells.nu[sub.parent_cells]),
-        )
 
     @property
     def columns(self) -> list[str]:

@@ -11,7 +11,6 @@ from crane_fem.coupling import MacroRecord
 from crane_fem.pipeline import Simulation
 from crane_fem.points import GroundAcceleration
 from crane_fem.reactions import SupportReactions
-from crane_fem.subdomains import cell_function
 
 __all__ = ["SupportsMonitor", "create_supports"]
 
@@ -36,10 +35,12 @@ class SupportsMonitor:
 
     @property
     def columns(self) -> list[str]:
-        """The history columns: each face's force components (N) at the row's instant, NaN at
+        """The history columns: each face's force components (N; a beam's support also its
+        moment, N·m) at the row's instant, NaN at
         a row where they are not evaluated."""
         r = self.reactions
-        return [f"support{k + 1}_f{'xyz'[c]}" for k in range(r.n_faces) for c in range(r.bs)]
+        names = ["fx", "fy", "fz", "mx", "my", "mz"] if r.bs == 6 else [f"f{c}" for c in "xyz"]
+        return [f"support{k + 1}_{names[c]}" for k in range(r.n_faces) for c in range(r.bs)]
 
     def history_row(self) -> dict[str, float]:
         return dict(zip(self.columns, self.last.ravel().tolist(), strict=True))
@@ -73,23 +74,11 @@ def create_supports(sim: Simulation) -> SupportsMonitor | None:
     without clamped DOFs)."""
     md, sc = sim.models, sim.scenario
     for sub in (md.implicit, md.explicit):
-        if sub is None or sub.bs != 3:
+        if sub is None or sub.bs == 1:
             continue
         if sim.mesh.comm.allreduce(int(np.count_nonzero(sub.model.fixed)), op=MPI.SUM):
-            mat = sc.materials[0][1]
-            E: Any = mat.E
-            nu: Any = mat.nu
-            rho: Any = mat.rho
-            cells = sim.mesh.materials
-            if cells is not None:  # per-group materials: each cell's own
-                E, nu, rho = (
-                    cell_function(sub.submesh, a[sub.parent_cells])
-                    for a in (cells.E, cells.nu, cells.rho)
-                )
             rayleigh = sub.model.alpha, sub.model.beta
             # A gmsh model's faces are its [[support]] groups; a crane's, its four ends.
             faces = list(sim.mesh.support_faces) or None
-            return SupportsMonitor(
-                sim, SupportReactions(sub, E, nu, rho, rayleigh, sc.loading.gravity, faces)
-            )
+            return SupportsMonitor(sim, SupportReactions(sub, rayleigh, sc.loading.gravity, faces))
     return None

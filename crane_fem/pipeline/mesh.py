@@ -3,7 +3,7 @@ vertices and the density of every cell."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import dolfinx
 import numpy as np
@@ -13,22 +13,26 @@ from mpi4py import MPI
 
 from crane_fem.contact.surface import Pairing, Surface, group_surface, pair_points
 from crane_fem.errors import ScenarioError
+from crane_fem.formulations import AxialBar, CellFields, Formulation, SolidP1, TimoshenkoBeam
 from crane_fem.geometry import TaggedMesh, create_box_beam, create_split_bar, groups
 from crane_fem.geometry.block import Block, create_block
 from crane_fem.geometry.box_beam import BoxBeam
 from crane_fem.geometry.crane import CraneMesh, create_crane_mesh
-from crane_fem.geometry.gmsh_file import create_gmsh_mesh
+from crane_fem.geometry.gmsh_file import create_frame_mesh, create_gmsh_mesh
 from crane_fem.mass_scaling import MassScaling, scale_density
 from crane_fem.mesh import Segment
+from crane_fem.pipeline.frame import frame_fields, frame_point_masses, frame_supports
 from crane_fem.scenario import (
     BarModel,
     BlockModel,
     BoxBeamModel,
     CraneModel,
+    FrameModel,
     GmshModel,
     Scenario,
     SurfaceContact,
 )
+from crane_fem.subdomains import PointMasses
 
 __all__ = [
     "CellMaterial",
@@ -81,6 +85,12 @@ class MeshStage:
             group, in order (its reactions are reported per group); empty for the built-in
             models (the crane's clamped ends are told apart by position).
         mass_scaling: the mass ``time.mass_scaling`` added (included in ``density``), or None.
+        formulation: the element formulation of the model's cells (crane_fem.formulations).
+        fields: the material (and a beam's section) of every local parent cell.
+        pinned_vertices: global parent ids of the vertices whose translations only are fixed
+            (a frame's pinned supports).
+        point_masses: masses and rotary inertias carried at vertices (a frame's
+            ``[[mass]]`` entries), or None.
     """
 
     comm: MPI.Comm
@@ -92,6 +102,10 @@ class MeshStage:
     materials: CellMaterial | None = None
     support_faces: tuple[IntArray, ...] = ()
     mass_scaling: MassScaling | None = None
+    formulation: Formulation = field(default_factory=SolidP1)
+    fields: CellFields = field(default_factory=lambda: CellFields(1.0, 0.0, 1.0))
+    pinned_vertices: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    point_masses: PointMasses | None = None
 
     def extent(self) -> float:
         """The largest side of the whole mesh's bounding box (m; collective: the same on
@@ -257,8 +271,31 @@ def support_groups(sc: Scenario) -> list[str]:
     return []
 
 
+def _frame_stage(sc: Scenario, comm: MPI.Comm, mdl: FrameModel) -> MeshStage:
+    """A frame's line mesh, its cells' materials, sections and axes, its supports and point
+    masses (collective)."""
+    tagged = create_frame_mesh(comm, mdl.mesh)
+    fields = frame_fields(sc, tagged)
+    clamped, pinned, faces = frame_supports(sc, tagged)
+    assert not isinstance(fields.rho, float)
+    return MeshStage(
+        comm,
+        tagged,
+        None,
+        clamped,
+        np.asarray(fields.rho),
+        support_faces=faces,
+        formulation=TimoshenkoBeam(),
+        fields=fields,
+        pinned_vertices=pinned,
+        point_masses=frame_point_masses(sc, tagged),
+    )
+
+
 def build_mesh(sc: Scenario, comm: MPI.Comm) -> MeshStage:
     """Mesh the scenario's model, or read its mesh file (collective)."""
+    if isinstance(sc.model, FrameModel):
+        return _frame_stage(sc, comm, sc.model)
     made = create_tagged_mesh(comm, sc)
     crane = made if isinstance(made, CraneMesh) else None
     tagged = made.tagged if isinstance(made, CraneMesh) else made
@@ -276,6 +313,14 @@ def build_mesh(sc: Scenario, comm: MPI.Comm) -> MeshStage:
         tagged.global_vertices(tagged.facet_vertices(s.group))
         for s in (sc.support if isinstance(mdl, GmshModel) else [])
     )
+    mat = sc.materials[0][1]  # where uniform
+    fields = CellFields(
+        cells.E if cells is not None else mat.E,
+        cells.nu if cells is not None else mat.nu,
+        density if density is not None else mat.rho,
+        mdl.area if isinstance(mdl, BarModel) else 1.0,
+    )
+    formulation: Formulation = AxialBar() if isinstance(mdl, BarModel) else SolidP1()
     return MeshStage(
         comm,
         tagged,
@@ -286,4 +331,6 @@ def build_mesh(sc: Scenario, comm: MPI.Comm) -> MeshStage:
         cells,
         faces,
         scaling,
+        formulation,
+        fields,
     )

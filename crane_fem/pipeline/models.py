@@ -11,7 +11,7 @@ import numpy as np
 from crane_fem.errors import ScenarioError
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.preload import BondedPoints, Preload, bonded_preload, static_preload
-from crane_fem.scenario import BarModel, BlockModel, GmshModel, Scenario
+from crane_fem.scenario import BlockModel, GmshModel, Scenario
 from crane_fem.stability import critical_time_step, max_frequency
 from crane_fem.subdomains import Subdomain, create_subdomain
 
@@ -146,17 +146,13 @@ def bonded_points(mesh: MeshStage) -> BondedPoints:
 
 def _gmsh_preload(sc: Scenario, mesh: MeshStage) -> Preload:
     """A gmsh model's self-weight state, its closed contacts bonded (collective)."""
-    assert mesh.density is not None
-    mat = mesh.materials
-    uniform = sc.materials[0][1]
     return bonded_preload(
         mesh.tagged,
         bonded_points(mesh),
         len(mesh.surface_contacts),
+        mesh.formulation,
+        mesh.fields,
         mesh.fixed_vertices,
-        mat.E if mat is not None else uniform.E,
-        mat.nu if mat is not None else uniform.nu,
-        mesh.density,
         np.asarray(sc.loading.gravity, dtype=np.float64),
         # Touching at t = 0: within round-off of the model's size (a mesh's nodes on a
         # shared plane sit there to ~1e-12 of it).
@@ -167,10 +163,8 @@ def _gmsh_preload(sc: Scenario, mesh: MeshStage) -> Preload:
 def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
     """Preload, subdomains and steps (collective)."""
     mdl, mat = sc.model, sc.materials[0][1]  # E, ν, ρ where uniform (else mesh.materials)
-    elastic = (mesh.materials.E, mesh.materials.nu) if mesh.materials is not None else None
     tagged, fixed = mesh.tagged, mesh.fixed_vertices
     method, ratio, specs = _specs(sc, mesh)
-    area = mdl.area if isinstance(mdl, BarModel) else 1.0
     rayleigh = sc.rayleigh_coefficients
     preload = None
     if mesh.crane is not None and np.any(np.asarray(sc.loading.gravity) != 0.0):
@@ -197,15 +191,13 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             "+".join(s[0] for s in explicit_specs),
             "cd-lagrange",
             tagged.cells([g for s in explicit_specs for g in s[2]]),
-            mat.E,
-            mat.nu,
-            mat.rho,
-            area,
+            mesh.formulation,
+            mesh.fields,
             rayleigh,
             fixed,
             consistent_mass=False,
-            cell_density=mesh.density,
-            cell_elastic=elastic,
+            pinned_vertices=mesh.pinned_vertices,
+            point_masses=mesh.point_masses,
         )
     if implicit_specs:
         spec = next((s for s in sc.subdomain if s.name == implicit_specs[0][0]), None)
@@ -215,15 +207,13 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             implicit_specs[0][0],
             implicit_specs[0][1],
             tagged.cells(implicit_specs[0][2]),
-            mat.E,
-            mat.nu,
-            mat.rho,
-            area,
+            mesh.formulation,
+            mesh.fields,
             own if own is not None else rayleigh,
             fixed,
             consistent_mass=sc.newmark.mass == "consistent",
-            cell_density=mesh.density,
-            cell_elastic=elastic,
+            pinned_vertices=mesh.pinned_vertices,
+            point_masses=mesh.point_masses,
         )
     # Δt from the explicit subdomain's own critical step.
     step_sub = explicit if explicit is not None else implicit

@@ -27,8 +27,9 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from crane_fem.errors import CraneFemError
+from crane_fem.formulations import CellFields, SolidP1, cell_function
 from crane_fem.geometry.tagged import TaggedMesh
-from crane_fem.model import assemble_structure
+from crane_fem.model import assemble_operators
 
 __all__ = ["Preload", "static_preload", "vertex_blocks"]
 
@@ -106,14 +107,15 @@ def static_preload(
     msh = tagged.mesh
     comm = msh.comm
     bs = 3
-    V = dolfinx.fem.functionspace(msh, ("Lagrange", 1, (bs,)))
-    rho = dolfinx.fem.Function(dolfinx.fem.functionspace(msh, ("DG", 0)))
-    rho.x.array[rho.function_space.dofmap.list[:, 0]] = cell_density
+    solid = SolidP1()
+    V = solid.space(msh)
     gv, blocks = vertex_blocks(V)
     imap = V.dofmap.index_map
     n_own = imap.size_local
     clamped = blocks[np.isin(gv, fixed_vertices)].astype(np.int32)
-    K, lumped, _ = assemble_structure(V, E, nu, rho, 1.0, clamped, False)
+    clamped_dofs = (clamped[:, None].astype(np.int64) * bs + np.arange(bs)).ravel()
+    fields = CellFields(E, nu, np.asarray(cell_density, dtype=np.float64))
+    K, lumped, _ = assemble_operators(solid, V, fields, clamped_dofs)
     f = (lumped.reshape(-1, bs) * np.asarray(gravity, dtype=np.float64)[None, :]).ravel()
     fixed = np.zeros(n_own * bs, dtype=bool)
     own_clamped = clamped[clamped < n_own]
@@ -230,6 +232,7 @@ def static_preload(
     # Trolley weight: |g| Σ over its cells of ∫ ρ dx.
     dx = ufl.Measure("dx", domain=msh, subdomain_data=tagged.cell_tags)
     tags = [tagged.cell_groups[g] for g in trolley_groups]
+    rho = cell_function(msh, cell_density)
     mass = sum((rho * dx(t) for t in tags[1:]), rho * dx(tags[0]))
     trolley_mass = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(mass)), MPI.SUM)
     return Preload(

@@ -14,6 +14,7 @@ from crane_fem.scenario.coupling import (
     NewmarkParams,
     SubdomainSpec,
 )
+from crane_fem.scenario.frame import BeamSection, FrameModel, LineContact, PlaneContact, Rope
 from crane_fem.scenario.load import load_scenario, parse_scenario
 from crane_fem.scenario.loading import GroundMotion, Loading, TipTraction
 from crane_fem.scenario.model import (
@@ -52,24 +53,29 @@ __all__ = [
     "OPERATOR_KEYS",
     "SOLVED_INTERFACE_METHODS",
     "BarModel",
+    "BeamSection",
     "BlockModel",
     "BoxBeamModel",
     "Contact",
     "Coupling",
     "CraneModel",
     "DampingRatio",
+    "FrameModel",
     "GmshModel",
     "GroundMotion",
     "GroupMass",
     "GroupMaterial",
     "Initial",
     "Integrator",
+    "LineContact",
     "Loading",
     "Material",
     "Monitor",
     "NewmarkParams",
     "Output",
+    "PlaneContact",
     "Pulse",
+    "Rope",
     "Scenario",
     "SecondBar",
     "Spectra",

@@ -6,6 +6,7 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
+from crane_fem.scenario.frame import LineContact, PlaneContact
 from crane_fem.scenario.model import MODEL_KINDS
 from crane_fem.scenario.root import Scenario
 from crane_fem.scenario.sections import Contact, SurfaceContact
@@ -17,6 +18,8 @@ CONTACT_KINDS: dict[str, type[BaseModel]] = {
     "bars": Contact,
     "plane": Contact,
     "surface": SurfaceContact,
+    "point-on-line": LineContact,
+    "point-on-plane": PlaneContact,
 }
 
 __all__ = ["format_error"]

@@ -10,6 +10,7 @@ from typing import Annotated, Any, Literal
 from pydantic import Field, field_validator, model_validator
 
 from crane_fem.scenario.base import NonNegativeFloat, PositiveFloat, PositiveInt, Section
+from crane_fem.scenario.frame import FrameModel
 
 __all__ = [
     "MESH_KEYS",
@@ -18,6 +19,7 @@ __all__ = [
     "BlockModel",
     "BoxBeamModel",
     "CraneModel",
+    "FrameModel",
     "GmshModel",
     "SecondBar",
 ]
@@ -210,6 +212,7 @@ class GmshModel(Section):
 
 
 MODEL_KINDS = {
+    "frame": FrameModel,
     "bar": BarModel,
     "box_beam": BoxBeamModel,
     "crane": CraneModel,

@@ -24,6 +24,7 @@ from crane_fem.scenario.coupling import (
     NewmarkParams,
     SubdomainSpec,
 )
+from crane_fem.scenario.frame import BeamSection, FrameModel, LineContact, PlaneContact, Rope
 from crane_fem.scenario.loading import Loading
 from crane_fem.scenario.model import BarModel, BlockModel, BoxBeamModel, CraneModel, GmshModel
 from crane_fem.scenario.sections import (
@@ -54,13 +55,20 @@ class Scenario(Section):
 
     name: str = "scenario"
     model: Annotated[
-        BarModel | BoxBeamModel | CraneModel | BlockModel | GmshModel, Field(discriminator="kind")
+        BarModel | BoxBeamModel | CraneModel | BlockModel | GmshModel | FrameModel,
+        Field(discriminator="kind"),
     ]
     material: Material | list[GroupMaterial]
     initial: Initial = Initial()
-    contact: list[Annotated[Contact | SurfaceContact, Field(discriminator="type")]] = []
+    contact: list[
+        Annotated[
+            Contact | SurfaceContact | LineContact | PlaneContact, Field(discriminator="type")
+        ]
+    ] = []
     support: list[Support] = []
     mass: list[GroupMass] = []
+    section: list[BeamSection] = []
+    rope: list[Rope] = []
     time: Time
     integrator: Integrator = Integrator()
     loading: Loading = Loading()
@@ -79,7 +87,7 @@ class Scenario(Section):
         return (
             bool(self.subdomain)
             or self.coupling is not None
-            or isinstance(self.model, BlockModel | GmshModel)
+            or isinstance(self.model, BlockModel | GmshModel | FrameModel)
         )
 
     @property
@@ -105,17 +113,37 @@ class Scenario(Section):
     @model_validator(mode="after")
     def _gmsh_groups(self) -> Scenario:
         mdl = self.model
-        if not isinstance(mdl, GmshModel) and isinstance(self.material, list):
+        own = isinstance(mdl, GmshModel | FrameModel)
+        if not own and isinstance(self.material, list):
             raise ValueError(
-                "material: [[material]] entries (one per set of volume groups) apply to "
-                f"model.kind 'gmsh'; model.kind {mdl.kind!r} takes one [material] table"
+                "material: [[material]] entries (one per set of groups) apply to model.kind "
+                f"'gmsh' and 'frame'; model.kind {mdl.kind!r} takes one [material] table"
             )
-        if not isinstance(mdl, GmshModel):
+        if not isinstance(mdl, FrameModel):
+            for key in ("section", "rope"):
+                if getattr(self, key):
+                    raise ValueError(
+                        f"{key}: [[{key}]] applies to model.kind 'frame', not {mdl.kind!r}"
+                    )
+            for i, sup in enumerate(self.support):
+                if sup.dofs != "clamped":
+                    raise ValueError(
+                        f"support[{i}].dofs: {sup.dofs!r} applies to a frame's point supports "
+                        "(a solid's face is clamped)"
+                    )
+            for i, ms in enumerate(self.mass):
+                if ms.inertia is not None:
+                    raise ValueError(
+                        f"mass[{i}].inertia: rotary inertia applies to a frame's point masses"
+                    )
+        if isinstance(mdl, FrameModel):
+            return self._frame_groups(mdl)
+        if not own:
             for key, given in (("support", self.support), ("mass", self.mass)):
                 if given:
                     raise ValueError(
-                        f"{key}: [[{key}]] applies to model.kind 'gmsh' (named groups of your "
-                        f"own mesh), not {mdl.kind!r}"
+                        f"{key}: [[{key}]] applies to model.kind 'gmsh' and 'frame' (named "
+                        f"groups of your own mesh), not {mdl.kind!r}"
                     )
             for i, c in enumerate(self.contact):
                 if c.type == "surface":
@@ -123,7 +151,13 @@ class Scenario(Section):
                         f"contact[{i}].type: 'surface' applies to model.kind 'gmsh' (the "
                         f'crane\'s wheels take wheel.contact = "surface"), not {mdl.kind!r}'
                     )
+                if c.type in ("point-on-line", "point-on-plane"):
+                    raise ValueError(
+                        f"contact[{i}].type: {c.type!r} applies to model.kind 'frame', not "
+                        f"{mdl.kind!r}"
+                    )
             return self
+        assert isinstance(mdl, GmshModel)
         volumes, surfaces = mdl.groups, mdl.surface_groups
         where = f"(in {Path(mdl.mesh).name}: {', '.join(surfaces) or 'none'})"
         if isinstance(self.material, list):
@@ -183,12 +217,7 @@ class Scenario(Section):
             raise ValueError(
                 f"contact: two contacts are named {twice[0]!r} (give each its own name)"
             )
-        if self.initial.model_fields_set:
-            key = sorted(self.initial.model_fields_set)[0]
-            raise ValueError(
-                f"initial.{key}: model.kind 'gmsh' starts at rest (in its static preload "
-                "under gravity)"
-            )
+        self._initial_velocity_only()
         if not self.subdomain and self.coupling is None:
             if self.integrator.scheme != "cd-lagrange":
                 raise ValueError(
@@ -197,11 +226,107 @@ class Scenario(Section):
                 )
         return self
 
+    def _initial_velocity_only(self) -> None:
+        """A structure of the user's own starts from its preload, with at most a uniform
+        velocity."""
+        extra = sorted(self.initial.model_fields_set - {"velocity"})
+        if extra:
+            raise ValueError(
+                f"initial.{extra[0]}: model.kind {self.model.kind!r} starts undeformed (in its "
+                "static preload under gravity); give its initial.velocity [vx, vy, vz] only"
+            )
+        if "velocity" in self.initial.model_fields_set and not isinstance(
+            self.initial.velocity, list
+        ):
+            raise ValueError(
+                f"initial.velocity: model.kind {self.model.kind!r} takes a vector [vx, vy, vz] "
+                f"(m/s), not a number (got {self.initial.velocity})"
+            )
+
+    def _frame_groups(self, mdl: FrameModel) -> Scenario:
+        """A frame's entries name its mesh's groups: line groups for sections, materials and
+        lines, point groups for supports, masses, points and rope ends."""
+        lines, points = mdl.groups, mdl.point_groups
+        fname = Path(mdl.mesh).name
+        where_l = f"(line groups in {fname}: {', '.join(lines)})"
+        where_p = f"(point groups in {fname}: {', '.join(points) or 'none'})"
+
+        def line(key: str, g: str) -> None:
+            if g not in lines:
+                raise ValueError(f"{key}: {g!r} is not a named line group {where_l}")
+
+        def point(key: str, g: str) -> None:
+            if g not in points:
+                raise ValueError(f"{key}: {g!r} is not a named point group {where_p}")
+
+        seen: dict[str, int] = {}
+        for i, sec in enumerate(self.section):
+            for g in sec.groups:
+                line(f"section[{i}].groups", g)
+                if g in seen:
+                    raise ValueError(f"section[{i}].groups: {g!r} already has section[{seen[g]}]")
+                seen[g] = i
+        missing = [g for g in lines if g not in seen]
+        if missing:
+            raise ValueError(
+                f"section: line groups {missing} have no [[section]] entry (each member needs "
+                "its cross-section and orientation)"
+            )
+        if isinstance(self.material, list):
+            owner: dict[str, int] = {}
+            for i, m in enumerate(self.material):
+                for g in m.groups:
+                    line(f"material[{i}].groups", g)
+                    if g in owner:
+                        raise ValueError(
+                            f"material[{i}].groups: {g!r} already has material[{owner[g]}]"
+                        )
+                    owner[g] = i
+                if m.rayleigh_coefficients != self.material[0].rayleigh_coefficients:
+                    raise ValueError(
+                        f"material[{i}]: its damping differs from material[0]'s; the damping "
+                        "C = αM + βK is one per scene"
+                    )
+            lacking = [g for g in lines if g not in owner]
+            if lacking:
+                raise ValueError(f"material: line groups {lacking} have no [[material]] entry")
+        for i, sup in enumerate(self.support):
+            point(f"support[{i}].group", sup.group)
+        for i, ms in enumerate(self.mass):
+            point(f"mass[{i}].group", ms.group)
+        labels = []
+        for i, c in enumerate(self.contact):
+            if c.type not in ("point-on-line", "point-on-plane"):
+                raise ValueError(
+                    f"contact[{i}].type: model.kind 'frame' takes contacts of type "
+                    f"'point-on-line' or 'point-on-plane', not {c.type!r}"
+                )
+            point(f"contact[{i}].points", c.points)
+            if isinstance(c, LineContact):
+                line(f"contact[{i}].line", c.line)
+            labels.append(c.label)
+        for i, r in enumerate(self.rope):
+            point(f"rope[{i}].a", r.a)
+            point(f"rope[{i}].b", r.b)
+            labels.append(r.label)
+        twice = sorted({n for n in labels if labels.count(n) > 1})
+        if twice:
+            raise ValueError(
+                f"contact: two contacts or ropes are named {twice[0]!r} (give each its own name)"
+            )
+        self._initial_velocity_only()
+        if not self.subdomain and self.coupling is None and self.integrator.scheme != "cd-lagrange":
+            raise ValueError(
+                f"integrator.scheme: model.kind 'frame' without [[subdomain]] runs one explicit "
+                f"'cd-lagrange' body, not {self.integrator.scheme!r}"
+            )
+        return self
+
     @model_validator(mode="after")
     def _contacts_and_block(self) -> Scenario:
         mdl = self.model
         block = isinstance(mdl, BlockModel)
-        if isinstance(mdl, GmshModel):
+        if isinstance(mdl, GmshModel | FrameModel):
             return self
         for i, c in enumerate(self.contact):
             if c.friction > 0.0 and c.type != "plane":

@@ -156,18 +156,30 @@ class SurfaceContact(Section):
 
 
 class Support(Section):
-    """A surface group of a gmsh model clamped to the ground: fixed in the relative
-    formulation, so it moves with the ground motion."""
+    """A group clamped to the ground (a gmsh model's surface group, a frame's point group):
+    fixed in the relative formulation, so it moves with the ground motion. A frame's support
+    fixes the six DOFs of its points (``dofs = "clamped"``) or their translations only
+    (``"pinned"``)."""
 
     group: str
+    dofs: Literal["clamped", "pinned"] = "clamped"
 
 
 class GroupMass(Section):
-    """Equipment carried rigidly by a volume group of a gmsh model: ``mass`` (kg) spread
-    uniformly over the group's volume (added to its density)."""
+    """Equipment carried rigidly by a group: a gmsh model's volume group (``mass``, kg,
+    spread uniformly over its volume: added to its density), or a frame's point group
+    (``mass`` shared equally by its points, with an optional rotary ``inertia`` [Ixx, Iyy,
+    Izz], kg·m², about global axes)."""
 
     group: str
     mass: PositiveFloat
+    inertia: Vector3 | None = None
+
+    @model_validator(mode="after")
+    def _inertia(self) -> GroupMass:
+        if self.inertia is not None and min(self.inertia) < 0.0:
+            raise ValueError(f"inertia = {self.inertia}: must not be negative")
+        return self
 
 
 class Wheel(Section):
