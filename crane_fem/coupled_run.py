@@ -24,6 +24,7 @@ from crane_fem.checkpoint import (
     scenario_hash,
     write_checkpoint,
 )
+from crane_fem.contact.on_line import LineContacts
 from crane_fem.contact.sliding import SlidingContacts
 from crane_fem.coupling import MacroRecord, MacroStep
 from crane_fem.errors import RunInterrupted, ScenarioError, UnstableRunError
@@ -151,7 +152,7 @@ def _records(
     method: MacroStep,
     force0: FloatArray | None,
     resumed: MacroRecord | None,
-    sliding: SlidingContacts | None = None,
+    sliding: SlidingContacts | LineContacts | None = None,
 ) -> Iterator[MacroRecord]:
     """The macro records of a run: the start's (or the resumed checkpoint's), then one per
     macro step to the clock's end (collective). Before each macro step, node-to-surface

@@ -90,6 +90,9 @@ class SupportReactions:
         n_own = sub.model.n_owned
         start = V.dofmap.index_map.local_range[0] * bs
         self.rows = np.flatnonzero(sub.model.fixed).astype(np.int32)
+        if faces is not None:  # the faces' rows only (not a rope end's held rotations)
+            on_face = np.isin(sub.parent_vertex[self.rows // bs], np.concatenate(faces))
+            self.rows = self.rows[on_face]
         none = np.zeros(0, dtype=np.int64)
         K, _, M = assemble_operators(sub.formulation, V, sub.fields, none, True)
         assert M is not None

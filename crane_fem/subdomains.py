@@ -118,6 +118,7 @@ def create_subdomain(
     consistent_mass: bool,
     pinned_vertices: IntArray | None = None,
     point_masses: PointMasses | None = None,
+    held_rotations: IntArray | None = None,
 ) -> Subdomain:
     """Build the subdomain of ``cells`` (owned parent cells; collective over the mesh comm).
 
@@ -128,6 +129,8 @@ def create_subdomain(
         consistent_mass: also assemble the consistent mass matrix (Newmark).
         pinned_vertices: global parent vertex ids whose translations only are fixed.
         point_masses: masses carried at vertices, added to both masses.
+        held_rotations: global parent vertex ids whose rotations are fixed (a beam node on
+            ropes only).
     """
     parent = tagged.mesh
     tdim = parent.topology.dim
@@ -153,6 +156,10 @@ def create_subdomain(
         pinned = np.flatnonzero(np.isin(parent_vertex, pinned_vertices))
         comps = np.arange(formulation.translations)
         fixed_dofs = np.union1d(fixed_dofs, (pinned[:, None] * bs + comps[None, :]).ravel())
+    if held_rotations is not None and held_rotations.size:
+        held = np.flatnonzero(np.isin(parent_vertex, held_rotations))
+        comps = np.arange(formulation.translations, bs)
+        fixed_dofs = np.union1d(fixed_dofs, (held[:, None] * bs + comps[None, :]).ravel())
     fixed_dofs = fixed_dofs.astype(np.int64)
     imap = sub.topology.index_map(tdim)
     sub_cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)

@@ -72,6 +72,10 @@ class ContactSet:
         tol: gap below which a point counts as closed, m (0: g ≤ 0).
         mu: Coulomb friction coefficient of each point (p,), or None: frictionless.
         tangents: the tangential rows of the points with ``mu > 0`` (None: none).
+        spring: per point (p,) the stiffness of the rope whose chord component the row is
+            (N/m; a rope's three rows, x, y, z of x_b − x_a, are consecutive), 0 for a
+            unilateral row; None: none. ``rest``: the ropes' rest lengths on the same rows
+            (m).
     """
 
     comm: MPI.Comm
@@ -84,6 +88,8 @@ class ContactSet:
     tol: float = 0.0
     mu: FloatArray | None = None
     tangents: TangentRows | None = None
+    spring: FloatArray | None = None
+    rest: FloatArray | None = None
     _buf: FloatArray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -114,6 +120,8 @@ class ContactSet:
             self.tol,
             None if self.mu is None else self.mu[keep],
             None if self.tangents is None else self.tangents.subset(keep),
+            None if self.spring is None else self.spring[keep],
+            None if self.rest is None else self.rest[keep],
         )
 
     def closed(self, gaps: FloatArray) -> npt.NDArray[np.bool_]:
@@ -224,6 +232,16 @@ class ContactSet:
         mu = None
         if first.mu is not None or second.mu is not None:
             mu = np.concatenate([first.friction, second.friction])
+        spring = rest = None
+        if first.spring is not None or second.spring is not None:
+
+            def both(a: FloatArray | None, b: FloatArray | None) -> FloatArray:
+                return np.concatenate(
+                    [np.zeros(first.p) if a is None else a, np.zeros(second.p) if b is None else b]
+                )
+
+            spring = both(first.spring, second.spring)
+            rest = both(first.rest, second.rest)
         tangents = None
         if first.tangents is not None or second.tangents is not None:
             a, b = first.tangent_rows, second.tangent_rows
@@ -244,4 +262,6 @@ class ContactSet:
             max(first.tol, second.tol),
             mu,
             tangents,
+            spring,
+            rest,
         )

@@ -31,6 +31,7 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from crane_fem.contact.constraints import ContactSet, TangentRows
+from crane_fem.contact.ropes import RopeRows
 from crane_fem.contact.sliding import SlidingError
 from crane_fem.contact.surface import owned_terms
 
@@ -162,6 +163,10 @@ class LineContacts:
         reach_message: how a point running off its line is explained (formatted with
             ``label``, ``t``).
         point_name: what a point's label numbers, in messages ("wheel").
+        static: rows that do not slide (points on a fixed plane), stacked after the
+            families'; their groups index ``names`` too.
+        ropes: ropes (crane_fem.contact.ropes), stacked last (the kernel follows their
+            chords: no update).
     """
 
     def __init__(
@@ -172,7 +177,11 @@ class LineContacts:
         tol: float,
         reach_message: str = "",
         point_name: str = "point",
+        static: ContactSet | None = None,
+        ropes: RopeRows | None = None,
     ) -> None:
+        self.static = static
+        self.ropes = ropes
         if sub.bs != 6:
             raise ValueError("point-on-line contact needs beams (6 DOFs per node)")
         self.sub = sub
@@ -278,8 +287,14 @@ class LineContacts:
     def rows(self) -> ContactSet:
         """The current rows of every family, stacked point by point (normal, then the two
         lateral rows of a point with clearance) (not collective)."""
-        r_all, v_all, c_all, k_all, groups, mus = [], [], [], [], [], []
-        tr_point, tr_rows, tr_vert, tr_comp, tr_val = [], [], [], [], []
+        none_i, none_f = np.zeros(0, dtype=np.int64), np.zeros(0)
+        r_all, v_all, c_all = [none_i], [none_i], [none_i]
+        k_all, groups, mus = [none_f], [none_i], [none_f]
+        tr_point: list[IntArray] = []
+        tr_rows: list[IntArray] = []
+        tr_vert: list[IntArray] = []
+        tr_comp: list[IntArray] = []
+        tr_val: list[FloatArray] = []
         start = 0
         n_t_total = 0
         for j, (f, pairing) in enumerate(zip(self.families, self.pairings, strict=True)):
@@ -328,7 +343,7 @@ class LineContacts:
                 tdofs,
                 trval[tkeep][tmine].astype(np.float64),
             )
-        return ContactSet(
+        out = ContactSet(
             self.comm,
             self.g0.copy(),
             rows[keep][mine].astype(np.int64),
@@ -340,6 +355,19 @@ class LineContacts:
             mu=mu_all if np.any(mu_all > 0.0) else None,
             tangents=tangents,
         )
+        parts = [
+            extra
+            for extra in (self.static, self.ropes.rows() if self.ropes is not None else None)
+            if extra is not None and extra.p
+        ]
+        for extra in parts:
+            both = ContactSet.stack(out, extra)
+            # Both sets' groups index the one list of names (stacking would shift them).
+            both.group = np.concatenate([out.group, extra.group]).astype(np.int64)
+            both.group_names = list(self.names)
+            both.tol = self.tol
+            out = both
+        return out
 
     # -- the hook before a macro step -------------------------------------------------------
     def update(self, zone: Any, t: float) -> bool:
@@ -366,7 +394,9 @@ class LineContacts:
         if repair:
             zone.set_contacts(self.rows())
         else:
-            zone.set_contact_gaps(self.g0)
+            fixed = self.static.g0 if self.static is not None else np.zeros(0)
+            rope = self.ropes.g0 if self.ropes is not None else np.zeros(0)
+            zone.set_contact_gaps(np.concatenate([self.g0, fixed, rope]))
         return repair
 
     # -- what the monitors and the summary read -------------------------------------------
@@ -405,6 +435,7 @@ class LineContacts:
 
     def state_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"repairs": self.repairs, "g0": self.g0.copy()}
+
         for j, pairing in enumerate(self.pairings):
             out[f"element_{j}"] = pairing.element.copy()
             out[f"xi_{j}"] = pairing.xi.copy()

@@ -186,6 +186,15 @@ def constraint_arrays(
     W_ec = np.ascontiguousarray(W[:n_g, n_g:])
     fr = _friction_arrays(contacts, model.minv, W_cc, interface)
     c_dofs = np.unique(np.concatenate([stack.dofs, fr.dofs])).astype(np.int64)
+    spring = np.zeros(contacts.p) if contacts.spring is None else contacts.spring
+    rest = np.zeros(contacts.p) if contacts.rest is None else contacts.rest
+    spring_dof = _spring_dofs(stack, fr.dofs, spring, n_g, c_dofs)
+    rope_row = spring > 0.0
+    first = np.flatnonzero(rope_row)[::3].astype(np.int64)
+    if first.size * 3 != np.count_nonzero(rope_row) or np.any(
+        ~rope_row[first[:, None] + np.arange(3)]
+    ):
+        raise CraneFemError("explicit zone: a rope's rows must be three consecutive rows")
     return {
         "p": stack.p,
         "n_g": n_g,
@@ -218,9 +227,39 @@ def constraint_arrays(
         "iso": fr.iso,
         "fric_ptr": fr.comp_ptr,
         "fric_order": fr.comp_order,
+        "rope_first": first,
+        "rope_k": np.ascontiguousarray(spring[first], dtype=np.float64),
+        "rope_length": np.ascontiguousarray(rest[first], dtype=np.float64),
+        "rope_row": rope_row,
+        "n_spring": int(first.size),
+        "spring_dof": spring_dof,
         "_stack": stack,
         "_W": W,
     }
+
+
+def _spring_dofs(
+    stack: ContactSet, tangent_dofs: IntArray, spring: FloatArray, n_g: int, c_dofs: IntArray
+) -> npt.NDArray[np.bool_]:
+    """Which constraint DOFs the spring rows (ropes) act on (collective: a DOF shared with
+    another row is refused on every rank).
+
+    Raises:
+        CraneFemError: a spring row shares a DOF with an interface, contact or tangential
+            row (its impulse is not part of their problem).
+    """
+    is_spring = np.zeros(stack.p, dtype=bool)
+    is_spring[n_g:] = spring > 0.0
+    mine = is_spring[stack.rows]
+    s_dofs = np.unique(stack.dofs[mine])
+    others = np.unique(np.concatenate([stack.dofs[~mine], tangent_dofs]))
+    shared = np.intersect1d(s_dofs, others).size
+    if stack.comm.allreduce(shared, op=MPI.SUM):
+        raise CraneFemError(
+            "explicit zone: a rope's ends may not be contact points, nor on the interface "
+            "between the explicit and implicit subdomains"
+        )
+    return np.isin(c_dofs, s_dofs)
 
 
 def _constraint_state(rows: dict[str, Any]) -> dict[str, Any]:

@@ -225,10 +225,17 @@ def _micro(
             for b in range(pc):
                 s += z.W_cc_inv[c, b] * st.qc[b]
             lam_c[c] = -s
-    elif ctl.mode == SOLVED:
-        solve_mixed(z, op, st, ctl.k_op[jj], closed, out.flags)
     else:
-        contacts_exact(z, st, closed, lam_c, out.flags)
+        if z.n_spring > 0:  # the ropes' rows take no part in the LCP
+            for c in range(pc):
+                if z.rope_row[c]:
+                    closed[c] = False
+        if ctl.mode == SOLVED:
+            solve_mixed(z, op, st, ctl.k_op[jj], closed, out.flags)
+        else:
+            contacts_exact(z, st, closed, lam_c, out.flags)
+        if z.n_spring > 0:
+            _ropes(z, gaps, lam_c, closed, n_g, h)
     # V_{j+1/2} = V_free + M⁻¹ Lᵀ Λ at the constraint DOFs, and the work of Λ.
     jump_f = st.jump_f
     for c in range(c_dofs.size):
@@ -245,6 +252,7 @@ def _micro(
     contact_w = 0.0
     link_w = 0.0
     fric_w = 0.0
+    spring_w = 0.0
     minv, mass, alpha, beta = z.minv, z.mass, z.alpha, z.beta
     for c in range(c_dofs.size):
         d = c_dofs[c]
@@ -252,7 +260,10 @@ def _micro(
         v_free = vh[d]
         vh[d] = v_free + dv
         v_mid = 0.5 * (vold_c[c] + vh[d])
-        contact_w += v_mid * jump_c[c]
+        if z.n_spring > 0 and z.spring_dof[c]:
+            spring_w += v_mid * jump_c[c]  # a rope's work: the structure's external force
+        else:
+            contact_w += v_mid * jump_c[c]
         link_w += v_mid * (jump[c] - jump_c[c])
         fric_w += v_mid * jump_f[c]
         # The sums of free_rows took V_free for V_{j+1/2}: add the impulse's part.
@@ -261,14 +272,14 @@ def _micro(
             cv = cv + beta * st.kv[d]
         ext += dv * load_at(z, coef, d)
         damp += dv * cv
-    out.sums[EXT] += 0.5 * h * ext
+    out.sums[EXT] += 0.5 * h * ext + spring_w
     out.sums[DAMP] += 0.5 * h * damp
     out.sums[CONTACT] += contact_w
     out.sums[LINK] += link_w
     out.sums[FRICTION] += fric_w
     active = False
     for c in range(pc):
-        if lam_c[c] > 0.0:
+        if lam_c[c] > 0.0 or (z.n_spring > 0 and z.rope_row[c] and lam_c[c] != 0.0):
             active = True
     out.active[jj] = active
     # Per contact group: the impulse and the smallest gap of this micro step (the peaks and
@@ -278,10 +289,20 @@ def _micro(
         g_imp[jj, k] = 0.0
         g_gap[jj, k] = np.inf
     for c in range(pc):
+        if z.n_spring > 0 and z.rope_row[c]:
+            continue
         k = c_group[c]
         g_imp[jj, k] += lam_c[c]
         if gaps[n_g + c] < g_gap[jj, k]:
             g_gap[jj, k] = gaps[n_g + c]
+    for r in range(z.n_spring):  # a rope: its tension's impulse, its slack (−stretch)
+        c = z.rope_first[r]
+        k = c_group[c]
+        chord = np.sqrt(gaps[n_g + c] ** 2 + gaps[n_g + c + 1] ** 2 + gaps[n_g + c + 2] ** 2)
+        slack = z.rope_length[r] - chord
+        g_imp[jj, k] += h * z.rope_k[r] * max(-slack, 0.0)
+        if slack < g_gap[jj, k]:
+            g_gap[jj, k] = slack
     if ctl.watch.size > 0 and out.flags[CLOSED] == 0:
         for c in range(pc):
             if closed[c] != ctl.watch[c]:
@@ -320,6 +341,28 @@ def _micro(
             out.lam_t[k] = lam_t[k]
         for i in range(n_g):
             out.w[i] = st.w_prev[i]
+
+
+@numba.njit(cache=True)
+def _ropes(
+    z: Zone, gaps: FloatArray, lam_c: FloatArray, closed: npt.NDArray[np.bool_], n_g: int, h: float
+) -> None:
+    """Each rope's impulse on its three chord rows: h k max(0, ℓ − L) along −x/ℓ (its ends
+    pulled together), x = x_b − x_a the chord now (the rows' values), ℓ = |x|; its rows
+    count as closed while it is taut."""
+    for r in range(z.n_spring):
+        c = z.rope_first[r]
+        x0, x1, x2 = gaps[n_g + c], gaps[n_g + c + 1], gaps[n_g + c + 2]
+        length = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+        stretch = length - z.rope_length[r]
+        pull = h * z.rope_k[r] * max(stretch, 0.0) / length
+        lam_c[c] = -pull * x0
+        lam_c[c + 1] = -pull * x1
+        lam_c[c + 2] = -pull * x2
+        taut = stretch >= 0.0
+        closed[c] = taut
+        closed[c + 1] = taut
+        closed[c + 2] = taut
 
 
 @numba.njit(cache=True)

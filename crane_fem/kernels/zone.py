@@ -124,6 +124,17 @@ class Zone(NamedTuple):
     iso: BoolArray
     fric_ptr: IntArray
     fric_order: IntArray
+    #: Ropes (tension-only springs): each rope's three contact rows are the components of
+    #: its chord x_b − x_a (rows rope_first[r] + 0, 1, 2), its stiffness (N/m) and rest
+    #: length (m); per contact point whether it is a rope's row (no part of the LCP); the
+    #: number of ropes, and which constraint DOFs (``c_dofs``) they act on (no other row
+    #: acts there). A rope's impulse is h k max(0, ℓ − L) along its current chord.
+    rope_first: IntArray = np.zeros(0, dtype=np.int64)
+    rope_k: FloatArray = np.zeros(0)
+    rope_length: FloatArray = np.zeros(0)
+    rope_row: BoolArray = np.zeros(0, dtype=np.bool_)
+    n_spring: int = 0
+    spring_dof: BoolArray = np.zeros(0, dtype=np.bool_)
 
 
 class ZoneState(NamedTuple):

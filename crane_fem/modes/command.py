@@ -47,19 +47,21 @@ def run_modes(
     writes the JSON).
 
     Args:
-        sc: the scenario (3D model with clamped vertices).
+        sc: the scenario: a 3D solid with clamped vertices, or a frame with clamped or
+            pinned supports that leave it no rigid mode.
         n: how many of the lowest modes.
         out: the output directory.
-        degree: Lagrange degree of the displacement (1: the runs' discretisation).
+        degree: Lagrange degree of the displacement (1: the runs' discretisation; 2 for a
+            solid only).
         damping: one damping ratio for every mode, or None for the scenario's (Rayleigh per
             mode, or 5 % when it has none).
         compare: a ``crane-fem run`` directory whose peaks to set beside the estimate; the
             record's window is then that run's [0, t_reached].
 
     Raises:
-        ScenarioError: bad input (n < 1 or above the free DOFs, a 1D bar, no clamped
-            vertex, a run directory without summary.json, --compare without ground motion),
-            the same line on every rank.
+        ScenarioError: bad input (n < 1 or above the free DOFs, a 1D bar, no support, a
+            rigid mode left by the supports, degree 2 on a frame, a run directory without
+            summary.json, --compare without ground motion), the same line on every rank.
     """
     from crane_fem.pipeline import build_mesh
 
@@ -87,8 +89,12 @@ def run_modes(
         reached = float(summary.get("t_reached_s", window))
         window = min(reached, float(summary.get("time_end_s", reached)))
     mesh = build_mesh(sc, comm)
-    if mesh.fixed_vertices.size == 0:
-        raise ScenarioError("modes: the structure has no clamped vertex (it has rigid modes)")
+    if mesh.fixed_vertices.size == 0 and mesh.pinned_vertices.size == 0:
+        raise ScenarioError("modes: the structure has no support (it has rigid modes)")
+    if degree != 1 and mesh.formulation.name != "solid":
+        raise ScenarioError(
+            f"modes: --degree {degree} is for solids; a {mesh.formulation.name} model is P1"
+        )
     # One [material], or per-group entries (cellwise on the mesh stage; one damping).
     mat = sc.material[0] if isinstance(sc.material, list) else sc.material
     gravity = np.asarray(sc.loading.gravity, dtype=np.float64)

@@ -12,7 +12,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 from slepc4py import SLEPc
 
-from crane_fem.errors import CraneFemError
+from crane_fem.errors import CraneFemError, ScenarioError
 from crane_fem.modes.operators import ClosedStructure
 
 __all__ = ["ModalBasis", "rigid_inertia", "solve_modes"]
@@ -21,6 +21,11 @@ FloatArray = npt.NDArray[np.float64]
 
 #: Relative residual to which SLEPc converges each eigenpair.
 EIGEN_TOL = 1e-10
+#: An eigenvalue below this fraction of the largest diag(K)/diag(M) (about the mesh's highest
+#: ω²) is a rigid mode: round-off of zero. A structure's true lowest ω² is orders of magnitude
+#: above it (a 16-element beam pinned at its root only: its rigid turns at 1e-19 of that scale,
+#: its first bending at 2e-7).
+RIGID_TOL = 1e-13
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,6 +88,16 @@ def rigid_inertia(st: ClosedStructure) -> FloatArray:
     return out
 
 
+def _omega2_scale(st: ClosedStructure) -> float:
+    """The largest diag(K)_i / diag(M)_i, 1/s² (collective)."""
+    dk, dm = st.K.getDiagonal(), st.M.getDiagonal()
+    k, m = dk.array_r, dm.array_r
+    ratio = np.divide(k, m, out=np.zeros_like(k), where=m > 0.0)
+    dk.destroy()
+    dm.destroy()
+    return float(st.comm.allreduce(float(np.max(ratio, initial=0.0)), op=MPI.MAX))
+
+
 def solve_modes(st: ClosedStructure, n: int, prefix: str = "crane_fem_modes_") -> ModalBasis:
     """The ``n`` lowest modes of K φ = ω² M φ (collective over ``st.comm``).
 
@@ -93,6 +108,8 @@ def solve_modes(st: ClosedStructure, n: int, prefix: str = "crane_fem_modes_") -
     Raises:
         CraneFemError: ``n`` is not between 1 and the free DOFs, or fewer than ``n`` pairs
             converged.
+        ScenarioError: the supports leave the structure a rigid mode (a pinned-only frame
+            that can turn): an eigenvalue at round-off of zero, on every rank.
     """
     comm = st.comm
     if not 1 <= n <= st.n_free:
@@ -121,6 +138,13 @@ def solve_modes(st: ClosedStructure, n: int, prefix: str = "crane_fem_modes_") -
         if nconv < n:
             raise CraneFemError(f"modes: SLEPc converged {nconv} of {n} eigenpairs")
         lam = np.array([eps.getEigenvalue(i).real for i in range(nconv)])
+        rigid = int(np.count_nonzero(lam < RIGID_TOL * _omega2_scale(st)))
+        if rigid:
+            raise ScenarioError(
+                f"modes: the supports leave the structure {rigid} rigid mode(s) (ω² ≈ 0: it moves "
+                "or turns freely, as a member pinned at both ends turns about its axis); clamp "
+                "or pin more of it"
+            )
         order = np.argsort(lam)[:n]
         shapes = np.zeros((n, st.free.size))
         for k, i in enumerate(order):
@@ -142,9 +166,11 @@ def solve_modes(st: ClosedStructure, n: int, prefix: str = "crane_fem_modes_") -
     participation = np.asarray(comm.allreduce(shapes @ mr.T, op=MPI.SUM), dtype=np.float64)
     total = np.asarray(comm.allreduce(mr.sum(axis=1), op=MPI.SUM), dtype=np.float64)
     # A sign for each shape that every rank count picks alike: its largest participation
-    # positive or, for a mode that moves no mass (torsion), its largest value.
+    # positive (of two equal to round-off, as a symmetric frame's x and y, the first) or, for
+    # a mode that moves no mass (torsion), its largest value.
     for k in range(n):
-        d = int(np.argmax(np.abs(participation[k])))
+        size = np.abs(participation[k])
+        d = int(np.flatnonzero(size >= (1.0 - 1e-9) * size.max())[0])
         sign = np.sign(participation[k, d])
         if abs(participation[k, d]) < 1e-8 * math.sqrt(float(total.max())):
             big = float(np.max(np.abs(shapes[k]), initial=0.0))

@@ -1,6 +1,6 @@
 """The response-spectrum estimate of a scenario's seismic loads on the closed structure: the
-supports' and the wheels' forces, static (gravity) plus the modes' combined peaks
-(:mod:`crane_fem.modes.spectral` gives the formulas)."""
+supports' and the wheels' forces (and a beam support's moments), static (gravity) plus the
+modes' combined peaks (:mod:`crane_fem.modes.spectral` gives the formulas)."""
 
 from __future__ import annotations
 
@@ -28,10 +28,13 @@ FloatArray = npt.NDArray[np.float64]
 
 @dataclass(frozen=True, eq=False)
 class Envelope:
-    """One value per force (global): ``support`` (faces, 3) N, ``wheel`` (wheels,) N."""
+    """One value per force (global): ``support`` (faces, 3) N, ``wheel`` (wheels,) N,
+    ``moment`` (faces, 3) N·m about each face's centre, or (faces, 0) without rotational
+    DOFs (:class:`~crane_fem.modes.forces.Forces`)."""
 
     support: FloatArray
     wheel: FloatArray
+    moment: FloatArray
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,13 +72,18 @@ class SpectralEstimate:
         return Envelope(
             np.hypot(modal.support, self.residual.support),
             np.hypot(modal.wheel, self.residual.wheel),
+            np.hypot(modal.moment, self.residual.moment),
         )
 
     def peak(self, method: str = "cqc") -> Envelope:
         """Static plus seismic, each component |static| + dynamic (N): the estimate of the
         largest force a time history would reach."""
         dyn = self.dynamic(method)
-        return Envelope(np.abs(self.static.support) + dyn.support, self.static.wheel + dyn.wheel)
+        return Envelope(
+            np.abs(self.static.support) + dyn.support,
+            self.static.wheel + dyn.wheel,
+            np.abs(self.static.moment) + dyn.moment,
+        )
 
 
 def ground_history(sc: Scenario, end: float) -> tuple[FloatArray, FloatArray]:
@@ -102,25 +110,19 @@ def ground_history(sc: Scenario, end: float) -> tuple[FloatArray, FloatArray]:
     return t, a
 
 
-def _combine(
-    modal: Forces, factor: FloatArray, rho: FloatArray, method: str
-) -> tuple[FloatArray, FloatArray]:
+def _combine(modal: Forces, factor: FloatArray, rho: FloatArray, method: str) -> Envelope:
     """The modal forces scaled by ``factor`` (n, 3) per direction, combined over the modes
     by ``method`` and over the directions by SRSS."""
-    sup = np.zeros(modal.support.shape[1:])
-    whl = np.zeros(modal.wheel.shape[1:])
+    parts = (modal.support, modal.wheel, modal.moment)
+    sums = [np.zeros(x.shape[1:]) for x in parts]
     for d in range(3):
         if not np.any(factor[:, d]):
             continue
-        xs = modal.support * factor[:, d, None, None]
-        xw = modal.wheel * factor[:, d, None]
-        if method == "cqc":
-            cs, cw = combine_cqc(xs, rho), combine_cqc(xw, rho)
-        else:
-            cs, cw = combine_srss(xs), combine_srss(xw)
-        sup += cs**2
-        whl += cw**2
-    return np.sqrt(sup), np.sqrt(whl)
+        for total, x in zip(sums, parts, strict=True):
+            xd = x * factor[:, d].reshape((-1,) + (1,) * (x.ndim - 1))
+            c = combine_cqc(xd, rho) if method == "cqc" else combine_srss(xd)
+            total += c**2
+    return Envelope(*(np.sqrt(x) for x in sums))
 
 
 def spectral_estimate(
@@ -153,6 +155,7 @@ def spectral_estimate(
         mr = rigid_inertia(st)
         res_s = np.zeros((recovery.n_faces, 3))
         res_w = np.zeros(recovery.n_wheels)
+        res_m = np.zeros(static.moment.shape[1:])
         for d in range(3):
             if zpa[d] == 0.0:
                 continue
@@ -160,21 +163,22 @@ def spectral_estimate(
             f = recovery(zpa[d] * u)
             res_s += f.support[0] ** 2
             res_w += f.wheel[0] ** 2
+            res_m += f.moment[0] ** 2
     finally:
         solver.destroy()
         recovery.destroy()
     factor = basis.gamma * sa / (omega**2)[:, None]
     rho = cqc_correlation(omega, damping)
-    srss = Envelope(*_combine(modal, factor, rho, "srss"))
-    cqc = Envelope(*_combine(modal, factor, rho, "cqc"))
+    srss = _combine(modal, factor, rho, "srss")
+    cqc = _combine(modal, factor, rho, "cqc")
     return SpectralEstimate(
         window=float(window),
         damping=np.asarray(damping, dtype=np.float64),
         sa=sa,
         zpa=zpa,
-        static=Envelope(static.support[0], static.wheel[0]),
+        static=Envelope(static.support[0], static.wheel[0], static.moment[0]),
         srss=srss,
         cqc=cqc,
-        residual=Envelope(np.sqrt(res_s), np.sqrt(res_w)),
+        residual=Envelope(np.sqrt(res_s), np.sqrt(res_w), np.sqrt(res_m)),
         support_centres=recovery.centres,
     )

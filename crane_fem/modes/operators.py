@@ -49,9 +49,9 @@ class ClosedStructure:
     """K φ = ω² M φ of the structure with closed contacts (collective objects over ``comm``).
     Owns ``K``, ``M``, ``K_cf``: call :meth:`destroy` (collective).
 
-    DOFs are those of the vector space ``V`` (block size 3), in dolfinx's owned ordering;
-    ``free``/``clamped`` are owned local DOF indices (block × 3 + component, sorted), the
-    local rows of ``K``/``M`` and of ``K_cf`` in that order.
+    DOFs are those of the space ``V`` (block size ``bs``: 3 for a solid, 6 for a beam), in
+    dolfinx's owned ordering; ``free``/``clamped`` are owned local DOF indices (block × bs +
+    component, sorted), the local rows of ``K``/``M`` and of ``K_cf`` in that order.
 
     Attributes:
         V: the displacement space on the parent mesh (P1 or P2).
@@ -154,7 +154,8 @@ def _global_blocks(V: dolfinx.fem.FunctionSpace, vertices: IntArray) -> dict[int
 
 def _add_ties(K: PETSc.Mat, V: dolfinx.fem.FunctionSpace, pairs: IntArray, k_p: float) -> None:
     """Add k_p [[1, −1], [−1, 1]] between the wheel and rail DOFs of every pair, in each
-    component; each rank adds the pairs whose wheel block it owns (collective: assembles)."""
+    translation; each rank adds the pairs whose wheel block it owns (collective: assembles)."""
+    bs = V.dofmap.index_map_bs
     block_of = _global_blocks(V, pairs.ravel())
     lo, hi = V.dofmap.index_map.local_range
     K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)  # type: ignore[arg-type]
@@ -164,28 +165,33 @@ def _add_ties(K: PETSc.Mat, V: dolfinx.fem.FunctionSpace, pairs: IntArray, k_p: 
         if not lo <= bw < hi:
             continue
         for c in range(3):
-            idx = [3 * bw + c, 3 * br + c]
+            idx = [bs * bw + c, bs * br + c]
             K.setValues(idx, idx, ke, addv=True)  # addv=True: ADD_VALUES
     K.assemble()
 
 
 def _add_bonded(K: PETSc.Mat, V: dolfinx.fem.FunctionSpace, mesh: MeshStage, k_p: float) -> None:
-    """A gmsh model's contact points that touch their surface at t = 0 tied to it in each
-    component, k_p (w wᵀ ⊗ I₃) with w = [1, −ξ_a, −ξ_b, −ξ_c] (the static preload's springs,
-    crane_fem.preload.bonded); each rank adds the points whose vertex block it owns
-    (collective: assembles)."""
+    """The contact points that touch what they meet at t = 0 tied to it in each direction:
+    a gmsh model's points on their triangles, k_p (w wᵀ ⊗ I₃) with w = [1, −ξ_a, −ξ_b, −ξ_c],
+    a frame's points on their line or plane, k_p Σ_d r_d r_dᵀ over its three rows (the
+    static preload's springs, crane_fem.preload.bonded); each rank adds the points whose
+    vertex block it owns (collective: assembles)."""
+    from crane_fem.pipeline.frame import frame_bonded_points
     from crane_fem.pipeline.models import TOUCHING, bonded_points
 
-    pts = bonded_points(mesh)
-    touching = pts.gap <= TOUCHING * mesh.extent()
+    fc = mesh.frame_contacts
+    pts = frame_bonded_points(fc) if fc is not None else bonded_points(mesh)
+    bs = V.dofmap.index_map_bs
+    touching = np.flatnonzero(pts.gap <= TOUCHING * mesh.extent())
     block_of = _global_blocks(V, pts.ids.ravel())
     lo, hi = V.dofmap.index_map.local_range
     K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)  # type: ignore[arg-type]
-    for ids, w in zip(pts.ids[touching].tolist(), pts.weights[touching], strict=True):
+    for i in touching.tolist():
+        ids = pts.ids[i].tolist()
         if not lo <= block_of[ids[0]] < hi:
             continue
-        idx = [3 * block_of[v] + c for v in ids for c in range(3)]
-        ke = k_p * np.kron(np.outer(w, w), np.eye(3))
+        idx = [bs * block_of[v] + c for v in ids for c in range(bs)]
+        ke = pts.spring(i, k_p, bs)
         K.setValues(idx, idx, ke.ravel().tolist(), addv=True)  # addv=True: ADD_VALUES
     K.assemble()
 
@@ -257,7 +263,8 @@ def assemble_closed_structure(
         diag.destroy()
         _add_ties(K_all, V, pairs, k_p)
 
-    if mesh.surface_contacts:
+    fc = mesh.frame_contacts
+    if mesh.surface_contacts or (fc is not None and (fc.lines or fc.planes)):
         diag = K_all.getDiagonal()
         k_p = comm.allreduce(float(np.max(diag.array_r, initial=0.0)), op=MPI.MAX)
         diag.destroy()

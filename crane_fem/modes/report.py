@@ -134,6 +134,21 @@ def _xyz(values: FloatArray) -> dict[str, float]:
     return {c: float(v) for c, v in zip(AXES, values, strict=True)}
 
 
+def _moments(est: SpectralEstimate, k: int) -> dict[str, Any]:
+    """Support ``k``'s moments about its centre (N·m), for a structure with rotational DOFs
+    (beams); empty otherwise."""
+    if est.static.moment.shape[1] == 0:
+        return {}
+    peak = est.peak("cqc").moment[k]
+    return {
+        "static_moment_Nm": [float(x) for x in est.static.moment[k]],
+        "srss_moment_Nm": [float(x) for x in est.srss.moment[k]],
+        "cqc_moment_Nm": [float(x) for x in est.cqc.moment[k]],
+        "residual_moment_Nm": [float(x) for x in est.residual.moment[k]],
+        "peak_moment_Nm": float(np.linalg.norm(peak)),
+    }
+
+
 def report_dict(rep: ModesReport) -> dict[str, Any]:
     """``modes.json``: the modes, the estimate and the comparison (not collective)."""
     b = rep.basis
@@ -177,6 +192,7 @@ def report_dict(rep: ModesReport) -> dict[str, Any]:
                 "residual_N": [float(x) for x in est.residual.support[k]],
                 "peak_vertical_N": float(peak.support[k, 2]),
                 "peak_force_N": float(np.linalg.norm(peak.support[k])),
+                **_moments(est, k),
             }
             for k in range(est.static.support.shape[0])
         }
@@ -253,6 +269,24 @@ def report_lines(rep: ModesReport) -> list[str]:
             f"{est.srss.support[k, 2] / 1e3:9.3f}  {est.cqc.support[k, 2] / 1e3:8.3f}  "
             f"{est.residual.support[k, 2] / 1e3:13.3f}  {peak.support[k, 2] / 1e3:9.3f}"
         )
+    if est.static.moment.shape[1]:
+        lines.append(
+            f"{'moment':>19}  {'static (kN·m)':>13}  {'SRSS (kN·m)':>11}  {'CQC (kN·m)':>10}  "
+            f"{'residual (kN·m)':>15}  {'peak (kN·m)':>11}   (magnitudes about each centre)"
+        )
+        norm = {
+            "static": np.linalg.norm(est.static.moment, axis=1),
+            "srss": np.linalg.norm(est.srss.moment, axis=1),
+            "cqc": np.linalg.norm(est.cqc.moment, axis=1),
+            "residual": np.linalg.norm(est.residual.moment, axis=1),
+            "peak": np.linalg.norm(peak.moment, axis=1),
+        }
+        for k in range(est.static.moment.shape[0]):
+            lines.append(
+                f"{f'support {k + 1}':>19}  {norm['static'][k] / 1e3:13.3f}  "
+                f"{norm['srss'][k] / 1e3:11.3f}  {norm['cqc'][k] / 1e3:10.3f}  "
+                f"{norm['residual'][k] / 1e3:15.3f}  {norm['peak'][k] / 1e3:11.3f}"
+            )
     dyn = est.dynamic("cqc")
     for w in range(est.static.wheel.size):
         lift = "  (lift-off: static − dynamic < 0)" if est.static.wheel[w] < dyn.wheel[w] else ""

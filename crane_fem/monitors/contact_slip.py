@@ -1,6 +1,6 @@
-"""The slip of a gmsh model's node-to-surface contacts as a macro-step monitor: each
-contact's mean slip vector in the history, its largest point slip and its slip at the end in
-the summary's ``contact_groups``."""
+"""The slip of a structure's sliding contacts (a gmsh model's node-to-surface, a frame's
+point-on-line) as a macro-step monitor: each contact's mean slip vector in the history, its
+largest point slip and its slip at the end in the summary's ``contact_groups``."""
 
 from __future__ import annotations
 
@@ -8,22 +8,24 @@ from typing import Any
 
 import numpy as np
 
+from crane_fem.contact.on_line import LineContacts
 from crane_fem.contact.sliding import SlidingContacts
 from crane_fem.coupling import MacroRecord
 from crane_fem.pipeline import Simulation
-from crane_fem.scenario import GmshModel
+from crane_fem.scenario import FrameModel, GmshModel
 
 __all__ = ["ContactSlipMonitor", "create_contact_slip"]
 
 
 class ContactSlipMonitor:
-    """:meth:`SlidingContacts.slip` at every sampling instant (collective)."""
+    """The contacts' ``slip`` at every sampling instant, per contact group that has points
+    (collective)."""
 
-    def __init__(self, sliding: SlidingContacts) -> None:
+    def __init__(self, sliding: SlidingContacts | LineContacts) -> None:
         self.sliding = sliding
-        self.names = list(sliding.names)
-        groups = np.concatenate([f.group for f in sliding.families])
-        self.group = groups.astype(np.int64)
+        groups = np.concatenate([f.group for f in sliding.families]).astype(np.int64)
+        used, self.group = np.unique(groups, return_inverse=True)
+        self.names = [sliding.names[int(g)] for g in used]
         n = len(self.names)
         #: Per contact: its points' mean slip vector now (m) and the largest point slip (m).
         self.mean = np.zeros((n, 3))
@@ -72,8 +74,11 @@ class ContactSlipMonitor:
 
 
 def create_contact_slip(sim: Simulation) -> ContactSlipMonitor | None:
-    """The slip of a gmsh model's surface contacts (None for other models or none)."""
+    """The slip of a gmsh model's or a frame's sliding contacts (None for other models or
+    none)."""
     sliding = sim.constraints.sliding
-    if not isinstance(sim.scenario.model, GmshModel) or sliding is None:
+    if not isinstance(sim.scenario.model, GmshModel | FrameModel) or sliding is None:
+        return None
+    if not sliding.families:  # (a frame's ropes alone: nothing slides)
         return None
     return ContactSlipMonitor(sliding)

@@ -10,7 +10,7 @@ import numpy as np
 
 from crane_fem.coupling import MacroRecord
 from crane_fem.pipeline import Simulation
-from crane_fem.scenario import GmshModel
+from crane_fem.scenario import FrameModel, GmshModel
 from crane_fem.stress import CellStress
 
 __all__ = ["GroupStress", "create_group_stress"]
@@ -103,7 +103,7 @@ class GroupStress:
 
 
 def create_group_stress(sim: Simulation) -> GroupStress | None:
-    """The group stresses of a gmsh model (None for the built-in models)."""
-    if not isinstance(sim.scenario.model, GmshModel):
+    """The group stresses of a gmsh model or a frame (None for the built-in models)."""
+    if not isinstance(sim.scenario.model, GmshModel | FrameModel):
         return None
     return GroupStress(sim)

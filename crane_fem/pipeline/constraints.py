@@ -11,6 +11,7 @@ from mpi4py import MPI
 
 from crane_fem.contact import ContactSet
 from crane_fem.contact.constraints import TangentRows
+from crane_fem.contact.on_line import LineContacts
 from crane_fem.contact.sliding import (
     Family,
     SlidingContacts,
@@ -24,6 +25,7 @@ from crane_fem.coupling.interface import build_interface, constraint_set
 from crane_fem.errors import ScenarioError
 from crane_fem.geometry import groups
 from crane_fem.geometry.crane import CraneMesh
+from crane_fem.pipeline.frame import frame_contact_rows
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.pipeline.models import ModelStage
 from crane_fem.preload import Preload
@@ -45,7 +47,7 @@ class ConstraintStage:
     l_explicit: ContactSet
     l_implicit: ContactSet
     contacts: ContactSet
-    sliding: SlidingContacts | None = None
+    sliding: SlidingContacts | LineContacts | None = None
 
 
 def _wall_contacts(sc: Scenario, mesh: MeshStage, sub: Subdomain) -> ContactSet:
@@ -382,7 +384,7 @@ def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> Cons
         if vertices.size == 0:
             raise ScenarioError("subdomain: the explicit and implicit subdomains do not touch")
     contacts = ContactSet.empty(comm)
-    sliding = None
+    sliding: SlidingContacts | LineContacts | None = None
     if mesh.crane is not None:
         if E_sub is None:
             raise ScenarioError("the crane's wheel/rail contacts need an explicit subdomain")
@@ -394,10 +396,16 @@ def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> Cons
         if sc.wheel.contact == "surface":
             sliding = _sliding_contacts(E_sub, mesh.crane, sc.model, sc.wheel, contacts, vertices)
             contacts = sliding.rows()
-    elif sc.contact:
+    elif sc.contact or sc.rope:
         if E_sub is None:
             raise ScenarioError("contact: needs an explicit (cd-lagrange) subdomain")
-        if isinstance(sc.model, GmshModel):
+        if mesh.frame_contacts is not None:
+            # A point held closed drifts by round-off (ε |u|): 1e-12 of the model absorbs it.
+            tol = 1e-12 * mesh.extent()
+            sliding, contacts = frame_contact_rows(
+                mesh.frame_contacts, E_sub, models.preload, vertices, tol
+            )
+        elif isinstance(sc.model, GmshModel):
             sliding = _gmsh_contacts(E_sub, mesh, models.preload, vertices)
             contacts = sliding.rows()
         elif isinstance(sc.model, BlockModel):

@@ -19,7 +19,7 @@ from crane_fem.loading import Accelerogram
 from crane_fem.loading.body import AffineLoad, GroundMotionHistory, PulseHistory
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.preload import Preload
-from crane_fem.scenario import BarModel, BlockModel, GroundMotion, Scenario
+from crane_fem.scenario import BarModel, GroundMotion, Scenario
 from crane_fem.subdomains import Subdomain
 
 __all__ = ["body_load", "ground_motion", "initial_state"]
@@ -98,12 +98,21 @@ def body_load(sc: Scenario, mesh: MeshStage, sub: Subdomain) -> AffineLoad:
     """The subdomain's body load: self-weight, plus −M ι a_g(t) per ground motion or the tip
     traction pulse (owned DOFs, N; collective for the traction's assembly)."""
     m = sub.model
-    g = np.asarray(sc.loading.gravity, dtype=np.float64)
     bs = sub.bs
+    n_t = sub.formulation.translations
+
+    def on_translations(vector: list[float] | FloatArray) -> FloatArray:
+        """A node's load per unit mass: the vector on its translations (a beam's rotations
+        take none)."""
+        out = np.zeros(bs)
+        out[:n_t] = np.asarray(vector, dtype=np.float64)[:n_t]
+        return out
+
+    g = on_translations(sc.loading.gravity)
     if bs == 1:
         grav = m.mass * g[0]
     else:
-        grav = (m.mass.reshape(-1, bs) * g[None, :bs]).ravel()
+        grav = (m.mass.reshape(-1, bs) * g[None, :]).ravel()
     grav[m.fixed] = 0.0
     motions = sc.loading.ground_motions
     if motions:
@@ -111,8 +120,8 @@ def body_load(sc: Scenario, mesh: MeshStage, sub: Subdomain) -> AffineLoad:
         for gm in motions:
             histories.append(ground_motion(gm, sc.time.end))
             d = np.asarray(gm.direction, dtype=np.float64)
-            d = d / np.linalg.norm(d)
-            unit = -(m.mass.reshape(-1, bs) * d[None, :bs]).ravel()  # −M ι per unit a_g
+            d = on_translations(d / np.linalg.norm(d))
+            unit = -(m.mass.reshape(-1, bs) * d[None, :]).ravel()  # −M ι per unit a_g
             unit[m.fixed] = 0.0
             units.append(unit)
         return AffineLoad(grav, np.array(units), tuple(histories))
@@ -129,7 +138,8 @@ def initial_state(
     sc: Scenario, sub: Subdomain, preload: Preload | None
 ) -> tuple[FloatArray, FloatArray]:
     """(U_0, V_0) on the subdomain's owned DOFs: the bar's initial field (uniform velocity,
-    linear displacement, a travelling pulse), or the crane's preloaded state (not collective)."""
+    linear displacement, a travelling pulse), or the preloaded state, with a uniform initial
+    velocity [vx, vy, vz] on the translations where one is given (not collective)."""
     n_own = sub.model.n_owned
     u0, v0 = np.zeros(n_own), np.zeros(n_own)
     mdl = sc.model
@@ -147,8 +157,10 @@ def initial_state(
             u0 = u0 + np.where(inside, p.amplitude * np.cos(math.pi * z) ** 2, 0.0)
             du = np.where(inside, -p.amplitude * math.pi / p.width * np.sin(2 * math.pi * z), 0.0)
             v0 = v0 - c * du
-    if isinstance(mdl, BlockModel):  # a uniform velocity [vx, vy, vz]
-        v0 = np.tile(np.asarray(sc.initial.velocity_vector), sub.n_owned_blocks)
+    if isinstance(sc.initial.velocity, list):  # a uniform velocity [vx, vy, vz]
+        node = np.zeros(sub.bs)
+        node[: sub.formulation.translations] = sc.initial.velocity_vector
+        v0 = np.tile(node, sub.n_owned_blocks)
     if preload is not None:
         blocks = sub.parent_vertex[: sub.n_owned_blocks]
         u0 = preload.displacement[blocks].ravel().copy()

@@ -21,7 +21,14 @@ from crane_fem.geometry.crane import CraneMesh, create_crane_mesh
 from crane_fem.geometry.gmsh_file import create_frame_mesh, create_gmsh_mesh
 from crane_fem.mass_scaling import MassScaling, scale_density
 from crane_fem.mesh import Segment
-from crane_fem.pipeline.frame import frame_fields, frame_point_masses, frame_supports
+from crane_fem.pipeline.frame import (
+    FrameContacts,
+    frame_contacts,
+    frame_fields,
+    frame_point_masses,
+    frame_supports,
+    rope_held_vertices,
+)
 from crane_fem.scenario import (
     BarModel,
     BlockModel,
@@ -91,6 +98,9 @@ class MeshStage:
             (a frame's pinned supports).
         point_masses: masses and rotary inertias carried at vertices (a frame's
             ``[[mass]]`` entries), or None.
+        frame_contacts: a frame's contacts at t = 0 (crane_fem.pipeline.frame), or None.
+        held_rotations: global parent ids of the vertices whose rotations are fixed (a
+            frame's vertices on ropes only).
     """
 
     comm: MPI.Comm
@@ -106,6 +116,8 @@ class MeshStage:
     fields: CellFields = field(default_factory=lambda: CellFields(1.0, 0.0, 1.0))
     pinned_vertices: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     point_masses: PointMasses | None = None
+    frame_contacts: FrameContacts | None = None
+    held_rotations: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def extent(self) -> float:
         """The largest side of the whole mesh's bounding box (m; collective: the same on
@@ -289,6 +301,8 @@ def _frame_stage(sc: Scenario, comm: MPI.Comm, mdl: FrameModel) -> MeshStage:
         fields=fields,
         pinned_vertices=pinned,
         point_masses=frame_point_masses(sc, tagged),
+        frame_contacts=frame_contacts(sc, tagged),
+        held_rotations=rope_held_vertices(sc, tagged),
     )
 
 

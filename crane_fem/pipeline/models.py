@@ -7,11 +7,14 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from mpi4py import MPI
 
+from crane_fem.contact.ropes import RopeSpec
 from crane_fem.errors import ScenarioError
+from crane_fem.pipeline.frame import frame_bonded_points
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.preload import BondedPoints, Preload, bonded_preload, static_preload
-from crane_fem.scenario import BlockModel, GmshModel, Scenario
+from crane_fem.scenario import BlockModel, FrameModel, GmshModel, Scenario
 from crane_fem.stability import critical_time_step, max_frequency
 from crane_fem.subdomains import Subdomain, create_subdomain
 
@@ -69,7 +72,7 @@ def _specs(sc: Scenario, mesh: MeshStage) -> tuple[str, int, list[tuple[str, str
         groups = list(mesh.tagged.cell_groups)
         return "monolithic", 1, [("all", cpl.monolithic_scheme, groups)]
     if isinstance(sc.model, BlockModel) or (
-        isinstance(sc.model, GmshModel) and not sc.subdomain
+        isinstance(sc.model, GmshModel | FrameModel) and not sc.subdomain
     ):  # one explicit body: the fully explicit path
         return "monolithic", 1, [("all", "cd-lagrange", list(mesh.tagged.cell_groups))]
     specs: list[tuple[str, str, list[str]]] = [
@@ -145,11 +148,17 @@ def bonded_points(mesh: MeshStage) -> BondedPoints:
 
 
 def _gmsh_preload(sc: Scenario, mesh: MeshStage) -> Preload:
-    """A gmsh model's self-weight state, its closed contacts bonded (collective)."""
+    """A gmsh model's or a frame's self-weight state, its closed contacts bonded
+    (collective)."""
+    fc = mesh.frame_contacts
+    if fc is not None:
+        points, groups = frame_bonded_points(fc), len(fc.names)
+    else:
+        points, groups = bonded_points(mesh), len(mesh.surface_contacts)
     return bonded_preload(
         mesh.tagged,
-        bonded_points(mesh),
-        len(mesh.surface_contacts),
+        points,
+        groups,
         mesh.formulation,
         mesh.fields,
         mesh.fixed_vertices,
@@ -157,7 +166,24 @@ def _gmsh_preload(sc: Scenario, mesh: MeshStage) -> Preload:
         # Touching at t = 0: within round-off of the model's size (a mesh's nodes on a
         # shared plane sit there to ~1e-12 of it).
         TOUCHING * mesh.extent(),
+        mesh.pinned_vertices,
+        mesh.point_masses,
+        (fc.ropes, fc.rope_X) if fc is not None and fc.ropes is not None else None,
+        mesh.held_rotations,
     )
+
+
+def _rope_frequency(sub: Subdomain, ropes: RopeSpec) -> float:
+    """The largest √(k (1/m_a + 1/m_b)) of the ropes (rad/s), m the ends' lumped
+    translational masses (collective)."""
+    ends = np.unique(np.r_[ropes.a, ropes.b])
+    blocks, pos = sub.owned_dofs_of(ends)
+    mass = np.zeros(ends.size)
+    mass[pos] = sub.model.mass.reshape(-1, sub.bs)[blocks, 0]
+    mass = sub.submesh.comm.allreduce(mass, op=MPI.SUM)
+    m_a = mass[np.searchsorted(ends, ropes.a)]
+    m_b = mass[np.searchsorted(ends, ropes.b)]
+    return float(np.max(np.sqrt(ropes.stiffness * (1.0 / m_a + 1.0 / m_b)), initial=0.0))
 
 
 def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
@@ -180,7 +206,8 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             np.asarray(sc.loading.gravity, dtype=np.float64),
             ["trolley_frame"] + [f"wheel_{k}" for k in range(1, 5)],
         )
-    if isinstance(mdl, GmshModel) and np.any(np.asarray(sc.loading.gravity) != 0.0):
+    users = isinstance(mdl, GmshModel | FrameModel)
+    if users and sc.initial.preload and np.any(np.asarray(sc.loading.gravity) != 0.0):
         preload = _gmsh_preload(sc, mesh)
     explicit_specs = [s for s in specs if s[1] == "cd-lagrange"]
     implicit_specs = [s for s in specs if s[1] in ("newmark", "newmark-reduced")]
@@ -198,6 +225,7 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             consistent_mass=False,
             pinned_vertices=mesh.pinned_vertices,
             point_masses=mesh.point_masses,
+            held_rotations=mesh.held_rotations,
         )
     if implicit_specs:
         spec = next((s for s in sc.subdomain if s.name == implicit_specs[0][0]), None)
@@ -214,11 +242,18 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             consistent_mass=sc.newmark.mass == "consistent",
             pinned_vertices=mesh.pinned_vertices,
             point_masses=mesh.point_masses,
+            held_rotations=mesh.held_rotations,
         )
     # Δt from the explicit subdomain's own critical step.
     step_sub = explicit if explicit is not None else implicit
     assert step_sub is not None
     omega_max = max_frequency(step_sub.model)
+    fc = mesh.frame_contacts
+    if fc is not None and fc.ropes is not None and explicit is not None:
+        # A rope's spring is not in K: its end masses' frequency √(k (1/m_a + 1/m_b)) joins
+        # the explicit side's (bounded as the root of their squares' sum: an end may also
+        # sit on a beam).
+        omega_max = math.hypot(omega_max, _rope_frequency(explicit, fc.ropes))
     dt_critical = critical_time_step(omega_max, *rayleigh)
     dt = _time_steps(sc, explicit, dt_critical)
     coupled = explicit is not None and implicit is not None

@@ -16,7 +16,14 @@ from crane_fem.pipeline.integrators import IntegratorStage, build_integrators
 from crane_fem.pipeline.mesh import MeshStage, build_mesh
 from crane_fem.pipeline.models import ModelStage, build_models
 from crane_fem.reduction import check_modes, interior_dofs
-from crane_fem.scenario import BlockModel, BoxBeamModel, CraneModel, GmshModel, Scenario
+from crane_fem.scenario import (
+    BlockModel,
+    BoxBeamModel,
+    CraneModel,
+    FrameModel,
+    GmshModel,
+    Scenario,
+)
 
 __all__ = ["Simulation", "SimulationCheck", "check_simulation", "create_simulation"]
 
@@ -36,8 +43,8 @@ class Simulation:
 
     def probe_vertices(self) -> npt.NDArray[np.int64]:
         """Global ids of the probe: the bar's right end, the beam's tip face, the crane's
-        wheel 1 contact face (wheel side), the block's top face, or a gmsh model's first
-        contact's points (none without a contact)."""
+        wheel 1 contact face (wheel side), the block's top face, or a gmsh model's or a
+        frame's first contact's points (none without a contact)."""
         mdl = self.scenario.model
         if isinstance(mdl, CraneModel):
             name = "wheel_patch_1"
@@ -49,35 +56,47 @@ class Simulation:
             if not self.mesh.surface_contacts:
                 return np.zeros(0, dtype=np.int64)
             return self.mesh.surface_contacts[0].points
+        elif self.mesh.frame_contacts is not None:  # a frame: its first contact's points
+            fc = self.mesh.frame_contacts
+            entries = [(c.index, c.points) for c in fc.lines] + [
+                (c.index, c.points) for c in fc.planes
+            ]
+            if not entries:
+                return np.zeros(0, dtype=np.int64)
+            return min(entries, key=lambda e: e[0])[1]
         else:
             name = groups.BAR_RIGHT_END
         tagged = self.mesh.tagged
         return tagged.global_vertices(tagged.facet_vertices(name))
 
     def mean_motion_columns(self) -> list[str]:
-        """The history columns of :meth:`mean_motion`: a block's mass-weighted mean
-        displacement and velocity (``ux_mean`` … ``vz_mean``); none for other models."""
-        if not isinstance(self.scenario.model, BlockModel):
+        """The history columns of :meth:`mean_motion`: a block's or a frame's mass-weighted
+        mean displacement and velocity (``ux_mean`` … ``vz_mean``); none for other models."""
+        if not isinstance(self.scenario.model, BlockModel | FrameModel):
+            return []
+        if self.models.explicit is None:
             return []
         return [f"{q}{c}_mean" for q in "uv" for c in "xyz"]
 
     def mean_motion(self, u: FloatArray | None, v: FloatArray | None) -> dict[str, float]:
         """The mass-weighted means Σ m_i u_i / Σ m_i of each component of the explicit side's
         displacement ``u`` and velocity ``v`` (owned DOFs): the motion of the centre of mass
-        (collective over the mesh's communicator for a block; {} otherwise, no
+        (collective over the mesh's communicator for a block or a frame; {} otherwise, no
         communication)."""
         cols = self.mean_motion_columns()
         if not cols:
             return {}
         sub = self.models.explicit
-        assert sub is not None and u is not None and v is not None
-        bs = sub.bs
-        m = sub.model.mass.reshape(-1, bs)
-        local = np.r_[(m * u.reshape(-1, bs)).sum(axis=0), (m * v.reshape(-1, bs)).sum(axis=0)]
+        if sub is None or u is None or v is None:  # (a frame run on its implicit side alone)
+            return {}
+        bs, n = sub.bs, 3
+        m = sub.model.mass.reshape(-1, bs)[:, :n]
+        uu, vv = u.reshape(-1, bs)[:, :n], v.reshape(-1, bs)[:, :n]
+        local = np.r_[(m * uu).sum(axis=0), (m * vv).sum(axis=0)]
         local = np.r_[local, m.sum(axis=0)]
         tot = self.mesh.comm.allreduce(local, op=MPI.SUM)
-        mass = np.r_[tot[2 * bs :], tot[2 * bs :]]
-        return {c: float(x / w) for c, x, w in zip(cols, tot[: 2 * bs], mass, strict=True)}
+        mass = np.r_[tot[2 * n :], tot[2 * n :]]
+        return {c: float(x / w) for c, x, w in zip(cols, tot[: 2 * n], mass, strict=True)}
 
     def destroy(self) -> None:
         self.integrators.destroy()

@@ -29,6 +29,7 @@ import ufl
 from mpi4py import MPI
 from petsc4py import PETSc
 
+from crane_fem.contact.ropes import RopeSpec
 from crane_fem.errors import CraneFemError
 from crane_fem.formulations import CellFields, Formulation, coefficient
 from crane_fem.geometry.tagged import TaggedMesh
@@ -95,6 +96,8 @@ def bonded_preload(
     touching: float,
     pinned_vertices: IntArray | None = None,
     point_masses: PointMasses | None = None,
+    ropes: tuple[RopeSpec, FloatArray] | None = None,
+    held_rotations: IntArray | None = None,
 ) -> Preload:
     """Solve the self-weight equilibrium with the closed contact points bonded (collective).
 
@@ -106,6 +109,9 @@ def bonded_preload(
             translations only are fixed.
         point_masses: masses carried at vertices (their weight is part of the load).
         touching: a point whose gap at X is at most this (m) starts closed.
+        ropes: a frame's ropes and their ends' coordinates (n, 2, 3): a rope taut at X
+            (within ``touching`` of its length) holds as the linear spring k d dᵀ between its
+            ends' translations while in tension (its force joins its group's).
 
     Returns:
         The preload; ``pair_force`` per point and ``wheel_force`` per contact group (N,
@@ -129,6 +135,10 @@ def bonded_preload(
     if pinned_vertices is not None and pinned_vertices.size:
         pinned = blocks[np.isin(gv, pinned_vertices)].astype(np.int64)
         fixed_dofs = np.union1d(fixed_dofs, (pinned[:, None] * bs + np.arange(n_t)).ravel())
+    if held_rotations is not None and held_rotations.size:
+        held = blocks[np.isin(gv, held_rotations)].astype(np.int64)
+        comps = np.arange(n_t, bs)
+        fixed_dofs = np.union1d(fixed_dofs, (held[:, None] * bs + comps).ravel())
     extra = None
     if point_masses is not None and point_masses.vertices.size:
         owned = gv[:n_own]
@@ -145,7 +155,8 @@ def bonded_preload(
     f[fixed_dofs[fixed_dofs < n_own * bs]] = 0.0
 
     owned_gv = gv[:n_own]
-    sel = np.isin(owned_gv, points.ids.ravel())
+    rope_ends = np.zeros(0, dtype=np.int64) if ropes is None else np.r_[ropes[0].a, ropes[0].b]
+    sel = np.isin(owned_gv, np.r_[points.ids.ravel(), rope_ends])
     gblock = np.asarray(imap.local_to_global(blocks[:n_own][sel].astype(np.int32)), dtype=np.int64)
     block_of: dict[int, int] = {}
     for ids, gb in comm.allgather((owned_gv[sel], gblock)):
@@ -159,21 +170,24 @@ def bonded_preload(
         [bs * block_of[int(v)] + c for v in row for c in range(bs)] if int(row[0]) in mine else None
         for row in points.ids
     ]
+    rope = _RopeSprings(ropes, block_of, mine, bs, touching)
+    f += rope.pretension(owned_gv)
     K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)  # type: ignore[arg-type]
-    for idx in dofs:
+    for idx in [*dofs, *rope.dofs]:
         if idx is not None:
             zeros = np.zeros(len(idx) ** 2).tolist()
             K.setValues(idx, idx, zeros, addv=True)  # addv=True: ADD_VALUES
     K.assemble()
     n_vertices = msh.topology.index_map(0).size_global
 
-    def solve(active: npt.NDArray[np.bool_]) -> FloatArray:
+    def solve(active: npt.NDArray[np.bool_], taut: npt.NDArray[np.bool_]) -> FloatArray:
         Ka = K.copy()
         for i in np.flatnonzero(active):
             idx = dofs[i]
             if idx is not None:
                 ke = points.spring(int(i), k_p, bs)
                 Ka.setValues(idx, idx, ke.ravel().tolist(), addv=True)
+        rope.add(Ka, taut)
         Ka.assemble()
         rhs, sol = Ka.createVecRight(), Ka.createVecRight()
         rhs.array[:] = f
@@ -207,17 +221,21 @@ def bonded_preload(
         return disp
 
     active = points.gap <= touching
+    taut = rope.taut0.copy()
     force = np.zeros(points.gap.size)
+    tension = np.zeros(taut.size)
     disp = np.zeros((n_vertices, bs))
     for _ in range(50):
-        disp = solve(active)
+        disp = solve(active, taut)
         dn = points.normal_motion(disp)
         force = np.where(active, -k_p * dn, 0.0)  # compressive on the point
-        tol = 1e-6 * float(np.max(np.abs(force), initial=0.0))
+        tension = rope.tension(disp, taut)
+        tol = 1e-6 * float(np.max(np.abs(np.r_[force, tension]), initial=0.0))
         new = (active & (force > -tol)) | (~active & (points.gap + dn < -tol / k_p))
-        if np.array_equal(new, active):
+        new_taut = (taut & (tension > -tol)) | (~taut & (rope.stretch(disp) > tol / rope.k_max))
+        if np.array_equal(new, active) and np.array_equal(new_taut, taut):
             break
-        active = new
+        active, taut = new, new_taut
     else:
         K.destroy()
         raise CraneFemError("static preload: the contact active set did not settle in 50 passes")
@@ -228,12 +246,83 @@ def bonded_preload(
     total = comm.allreduce(dolfinx.fem.assemble_scalar(dolfinx.fem.form(rho * dx)), MPI.SUM)
     if point_masses is not None:
         total += float(point_masses.values[:, 0].sum())
+    groups = np.bincount(points.group, weights=force, minlength=n_groups)
+    if ropes is not None:
+        np.add.at(groups, ropes[0].group, tension)
     return Preload(
         disp,
         force,
-        np.bincount(points.group, weights=force, minlength=n_groups),
+        groups,
         float(np.linalg.norm(g)) * float(total),
         0.0,
         float(np.max(np.abs(force), initial=0.0) / k_p) if k_p > 0.0 else 0.0,
         active,
     )
+
+
+class _RopeSprings:
+    """A frame's ropes in the preload: a taut rope is the spring k d dᵀ between its ends'
+    translations (d from a to b at X), with the pretension k (ℓ_X − L) where its length at X
+    exceeds its rest length."""
+
+    def __init__(
+        self,
+        ropes: tuple[RopeSpec, FloatArray] | None,
+        block_of: dict[int, int],
+        mine: set[int],
+        bs: int,
+        touching: float,
+    ) -> None:
+        self.spec = ropes[0] if ropes is not None else None
+        n = 0 if self.spec is None else self.spec.n
+        X = ropes[1] if ropes is not None else np.zeros((0, 2, 3))
+        chord = X[:, 1] - X[:, 0]
+        self.length = np.linalg.norm(chord, axis=1)
+        self.d = chord / np.maximum(self.length, 1e-300)[:, None]
+        self.bs = bs
+        rest = self.spec.length if self.spec is not None else np.zeros(0)
+        self.s0 = np.maximum(self.length - rest, 0.0)
+        self.taut0 = self.length >= rest - touching
+        self.k = self.spec.stiffness if self.spec is not None else np.zeros(0)
+        self.k_max = float(self.k.max(initial=1.0))
+        self.dofs: list[list[int] | None] = []
+        for r in range(n):
+            assert self.spec is not None
+            a, b = int(self.spec.a[r]), int(self.spec.b[r])
+            self.dofs.append(
+                [bs * block_of[v] + c for v in (a, b) for c in range(3)] if a in mine else None
+            )
+
+    def pretension(self, owned_gv: IntArray) -> FloatArray:
+        """The pretension's nodal forces on the owned DOFs (N)."""
+        out = np.zeros(owned_gv.size * self.bs)
+        if self.spec is None:
+            return out
+        for r in np.flatnonzero(self.taut0 & (self.s0 > 0.0)):
+            pull = self.k[r] * self.s0[r] * self.d[r]
+            for v, sign in ((self.spec.a[r], 1.0), (self.spec.b[r], -1.0)):
+                at = np.flatnonzero(owned_gv == v)
+                for blk in at:
+                    out[self.bs * blk : self.bs * blk + 3] += sign * pull
+        return out
+
+    def add(self, K: PETSc.Mat, taut: npt.NDArray[np.bool_]) -> None:
+        """Add the taut ropes' springs (not collective: each by the rank owning its a)."""
+        for r in np.flatnonzero(taut):
+            idx = self.dofs[r]
+            if idx is None:
+                continue
+            D = np.outer(self.d[r], self.d[r])
+            ke = self.k[r] * np.block([[D, -D], [-D, D]])
+            K.setValues(idx, idx, ke.ravel().tolist(), addv=True)  # addv=True: ADD_VALUES
+
+    def stretch(self, disp: FloatArray) -> FloatArray:
+        """Each rope's length less its rest length for the vertex displacements (m)."""
+        if self.spec is None:
+            return np.zeros(0)
+        du = disp[self.spec.b, :3] - disp[self.spec.a, :3]
+        return np.asarray(self.length - self.spec.length + np.einsum("rj,rj->r", self.d, du))
+
+    def tension(self, disp: FloatArray, taut: npt.NDArray[np.bool_]) -> FloatArray:
+        """The taut ropes' tension (N; 0 for a slack one)."""
+        return np.where(taut, self.k * self.stretch(disp), 0.0)

@@ -224,12 +224,13 @@ class PlaneContact(Section):
 
 
 class Rope(Section):
-    """A tension-only rope between the single vertices of two point groups ``a`` and ``b``:
-    force ``stiffness`` (N/m) × (its length − ``length``) along it while longer than
-    ``length`` (m), none while slack; its direction follows the two points."""
+    """A tension-only rope: the line group ``line``, one 2-node element between its two
+    ends (no ``[[section]]``: it is no beam). Its force is ``stiffness`` (N/m) × (its length
+    − ``length``, m) along it while longer than ``length``, none while slack; its direction
+    follows its ends. An end on no beam (a hanging load: give it a ``[[mass]]``) has its
+    rotations held."""
 
-    a: str
-    b: str
+    line: str
     length: float
     stiffness: PositiveFloat
     name: str | None = None
@@ -238,10 +239,8 @@ class Rope(Section):
     def _length(self) -> Rope:
         if not self.length > 0.0:
             raise ValueError(f"length = {self.length}: a rope needs a positive length (m)")
-        if self.a == self.b:
-            raise ValueError(f"a and b are the same group {self.a!r}")
         return self
 
     @property
     def label(self) -> str:
-        return self.name if self.name is not None else f"rope_{self.a}_{self.b}"
+        return self.name if self.name is not None else self.line

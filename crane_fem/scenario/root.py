@@ -229,11 +229,12 @@ class Scenario(Section):
     def _initial_velocity_only(self) -> None:
         """A structure of the user's own starts from its preload, with at most a uniform
         velocity."""
-        extra = sorted(self.initial.model_fields_set - {"velocity"})
+        extra = sorted(self.initial.model_fields_set - {"velocity", "preload"})
         if extra:
             raise ValueError(
                 f"initial.{extra[0]}: model.kind {self.model.kind!r} starts undeformed (in its "
-                "static preload under gravity); give its initial.velocity [vx, vy, vz] only"
+                "static preload under gravity); give its initial.velocity [vx, vy, vz] and "
+                "initial.preload only"
             )
         if "velocity" in self.initial.model_fields_set and not isinstance(
             self.initial.velocity, list
@@ -259,14 +260,25 @@ class Scenario(Section):
             if g not in points:
                 raise ValueError(f"{key}: {g!r} is not a named point group {where_p}")
 
+        ropes: dict[str, int] = {}
+        for i, r in enumerate(self.rope):
+            line(f"rope[{i}].line", r.line)
+            if r.line in ropes:
+                raise ValueError(f"rope[{i}].line: {r.line!r} is already rope[{ropes[r.line]}]")
+            ropes[r.line] = i
         seen: dict[str, int] = {}
         for i, sec in enumerate(self.section):
             for g in sec.groups:
                 line(f"section[{i}].groups", g)
+                if g in ropes:
+                    raise ValueError(
+                        f"section[{i}].groups: {g!r} is rope[{ropes[g]}]'s line (a rope is no "
+                        "beam: it takes no section)"
+                    )
                 if g in seen:
                     raise ValueError(f"section[{i}].groups: {g!r} already has section[{seen[g]}]")
                 seen[g] = i
-        missing = [g for g in lines if g not in seen]
+        missing = [g for g in lines if g not in seen and g not in ropes]
         if missing:
             raise ValueError(
                 f"section: line groups {missing} have no [[section]] entry (each member needs "
@@ -287,7 +299,7 @@ class Scenario(Section):
                         f"material[{i}]: its damping differs from material[0]'s; the damping "
                         "C = αM + βK is one per scene"
                     )
-            lacking = [g for g in lines if g not in owner]
+            lacking = [g for g in lines if g not in owner and g not in ropes]
             if lacking:
                 raise ValueError(f"material: line groups {lacking} have no [[material]] entry")
         for i, sup in enumerate(self.support):
@@ -305,10 +317,7 @@ class Scenario(Section):
             if isinstance(c, LineContact):
                 line(f"contact[{i}].line", c.line)
             labels.append(c.label)
-        for i, r in enumerate(self.rope):
-            point(f"rope[{i}].a", r.a)
-            point(f"rope[{i}].b", r.b)
-            labels.append(r.label)
+        labels += [r.label for r in self.rope]
         twice = sorted({n for n in labels if labels.count(n) > 1})
         if twice:
             raise ValueError(

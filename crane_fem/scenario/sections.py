@@ -97,11 +97,14 @@ class Pulse(Section):
 
 class Initial(Section):
     """Initial state of the first bar: uniform velocity, linear displacement [left, right],
-    optionally a travelling pulse on top; of a block: its uniform velocity [vx, vy, vz]."""
+    optionally a travelling pulse on top; of a 3D structure: its uniform velocity [vx, vy,
+    vz]. ``preload`` (a gmsh model, a frame): start from the static state under gravity
+    (default), or undeformed (``false``: a drop, a swing released from rest)."""
 
     velocity: float | Vector3 = 0.0
     displacement: Pair = [0.0, 0.0]
     pulse: Pulse | None = None
+    preload: bool = True
 
     @property
     def bar_velocity(self) -> float:
