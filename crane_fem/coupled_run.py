@@ -32,6 +32,8 @@ from crane_fem.io import HistoryWriter, XDMFSeries, write_summary
 from crane_fem.io.results import write_results_csv
 from crane_fem.monitors import HistoryRows, Monitors, create_monitors
 from crane_fem.pipeline import Simulation, create_simulation
+from crane_fem.pipeline.frame import carried_weight
+from crane_fem.pipeline.kinds import concrete_scenario
 from crane_fem.run_record import RunResult, StopRequest, finish_summary, progress_bar
 from crane_fem.scenario import Scenario
 from crane_fem.subdomains import Subdomain
@@ -260,6 +262,22 @@ def _summary_head(sc: Scenario, sim: Simulation, comm: MPI.Comm) -> dict[str, An
             },
             "max_penetration_m": pre.penetration,
         }
+    elif md.preload is not None and sim.mesh.frame_contacts is not None:
+        pre, fc = md.preload, sim.mesh.frame_contacts
+        carried = carried_weight(sc, sim.mesh.tagged, sim.mesh.fields)
+        normal = [c.group for c in fc.lines] + [c.group for c in fc.planes]
+        held = float(np.sum(pre.wheel_force[normal]))
+        summary["preload"] = {
+            "weight_N": pre.weight,
+            # The bodies on contacts alone (a trolley with its load) against what the
+            # contacts carry.
+            "carried_weight_N": carried,
+            "contact_forces_N": {
+                n: float(f) for n, f in zip(fc.names, pre.wheel_force, strict=True)
+            },
+            "sum_relative_error": abs(held - carried) / carried if carried > 0.0 else 0.0,
+            "max_penetration_m": pre.penetration,
+        }
     elif md.preload is not None:
         pre = md.preload
         summary["preload"] = {
@@ -292,6 +310,7 @@ def run_coupled(
     comm = MPI.COMM_WORLD if comm is None else comm
     out = Path(outdir)
     t_wall = time.perf_counter()
+    sc = concrete_scenario(sc, comm)  # (a frame crane as the frame it is)
     ckpt = read_checkpoint(Path(restart), comm, sc) if restart is not None else None
     sim = create_simulation(sc, comm)
     md, it = sim.models, sim.integrators

@@ -197,6 +197,23 @@ class ContactSet:
         self.comm.Allreduce(W, out, op=MPI.SUM)
         return out
 
+    def rope_values(self, gaps: FloatArray, forces: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Per point (p,) the gaps and forces an engineer reads: a rope's three chord rows
+        give its slack L − ℓ on each row and its tension on its first (0 on the other two);
+        the other rows as they are (not collective)."""
+        if self.spring is None or not np.any(self.spring > 0.0):
+            return gaps, forces
+        gaps, forces = gaps.copy(), forces.copy()
+        first = np.flatnonzero(self.spring > 0.0)[::3]
+        rest = self.rest if self.rest is not None else np.zeros(self.p)
+        for c in first:
+            chord = float(np.linalg.norm(gaps[c : c + 3]))
+            gaps[c : c + 3] = rest[c] - chord
+            tension = float(np.linalg.norm(forces[c : c + 3]))
+            forces[c : c + 3] = 0.0
+            forces[c] = tension
+        return gaps, forces
+
     def group_sums(self, values: FloatArray) -> FloatArray:
         """Sum of a point-wise p-vector over each contact group (not collective)."""
         return np.bincount(self.group, weights=values, minlength=len(self.group_names))

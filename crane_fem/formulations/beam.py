@@ -150,10 +150,15 @@ class BeamStress(CellStress):
         N, V1, V2, T, M1, M2 = (np.abs(f[:, k]) for k in range(6))
         m1 = M1 + V2 * self._half
         m2 = M2 + V1 * self._half
-        corner = m1 * s.c2 / s.I1 + m2 * s.c1 / s.I2
-        round_ = np.hypot(m1, m2) * s.c1 / s.I1
-        sigma = N / s.A + np.where(s.circular, round_, corner)
-        tau = T / s.Wt
+        beam = s.A > 0.0  # (a rope's cell has no section: no stress)
+
+        def ratio(a: FloatArray, b: FloatArray) -> FloatArray:
+            return np.divide(a, b, out=np.zeros_like(a), where=beam)
+
+        corner = ratio(m1 * s.c2, s.I1) + ratio(m2 * s.c1, s.I2)
+        round_ = ratio(np.hypot(m1, m2) * s.c1, s.I1)
+        sigma = ratio(N, s.A) + np.where(s.circular, round_, corner)
+        tau = ratio(T, s.Wt)
         vm = np.sqrt(sigma**2 + 3.0 * tau**2)
         self.field.x.array[self._cells] = vm
         return vm

@@ -64,6 +64,7 @@ def run_modes(
             summary.json, --compare without ground motion), the same line on every rank.
     """
     from crane_fem.pipeline import build_mesh
+    from crane_fem.pipeline.kinds import concrete_scenario
 
     if n < 1:
         raise ScenarioError(f"modes: --n must be at least 1 (got {n})")
@@ -88,6 +89,7 @@ def run_modes(
         # The run's window; its last macro step may pass time.end by a fraction of a step.
         reached = float(summary.get("t_reached_s", window))
         window = min(reached, float(summary.get("time_end_s", reached)))
+    sc = concrete_scenario(sc, comm)
     mesh = build_mesh(sc, comm)
     if mesh.fixed_vertices.size == 0 and mesh.pinned_vertices.size == 0:
         raise ScenarioError("modes: the structure has no support (it has rigid modes)")

@@ -25,7 +25,8 @@ class GroupStress:
     def __init__(self, sim: Simulation) -> None:
         md = sim.models
         tagged = sim.mesh.tagged
-        self.groups = list(tagged.cell_groups)
+        ropes = {r.line for r in sim.scenario.rope}  # a rope is no beam: no stress
+        self.groups = [g for g in tagged.cell_groups if g not in ropes]
         self.every = sim.scenario.output.stress_every * md.sample_steps
         n = tagged.mesh.topology.index_map(tagged.mesh.topology.dim)
         group_of = np.full(n.size_local + n.num_ghosts, -1, dtype=np.int64)

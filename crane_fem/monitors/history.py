@@ -61,10 +61,10 @@ class HistoryRows:
         e = rec.energy
         row: dict[str, float] = {"t": rec.t}
         row.update({k: e[k] for k in self.columns if k in e})
-        force = rec.contact_impulse / md.dt
+        gaps, force = self.contacts.rope_values(rec.gaps, rec.contact_impulse / md.dt)
         row["contact_force"] = float(force.sum())
         row["active_contacts"] = float(np.count_nonzero(force > 0))
-        gmin = self.contacts.group_mins(rec.gaps)
+        gmin = self.contacts.group_mins(gaps)
         gsum = self.contacts.group_sums(force)
         for i, g in enumerate(self.groups):
             row[f"gap_{g}"] = float(gmin[i])

@@ -30,6 +30,7 @@ __all__ = [
     "FrameContacts",
     "LineLayout",
     "PlaneLayout",
+    "carried_weight",
     "frame_bonded_points",
     "frame_contact_rows",
     "frame_contacts",
@@ -167,6 +168,8 @@ class LineLayout:
     xi: FloatArray
     group: int
     lateral: tuple[int, int] = (-1, -1)
+    #: A free-rolling wheel's friction acts across the line only.
+    rolling: bool = False
 
     def rows_at(self, which: tuple[str, ...]) -> FloatArray:
         """The coefficients (p, len(which), 3 vertices, 6) of the rows ``which`` ("normal",
@@ -275,7 +278,7 @@ def frame_contacts(sc: Scenario, tagged: TaggedMesh) -> FrameContacts:
             lateral = (-1, -1)
             if c.clearance is not None:
                 lateral = (len(names), len(names) + 1)
-                names += [f"{c.label}_flange_in", f"{c.label}_flange_out"]
+                names += c.lateral_names
             layout = LineLayout(
                 i,
                 c.label,
@@ -291,6 +294,7 @@ def frame_contacts(sc: Scenario, tagged: TaggedMesh) -> FrameContacts:
                 xi,
                 group,
                 lateral,
+                c.rolling,
             )
             _check_over_line(i, c, layout, found)
             lines.append(layout)
@@ -502,7 +506,7 @@ def frame_contact_rows(
                 c.offset,
                 np.full(p, c.group, dtype=np.int64),
                 shift,
-                n_tangents=2 if c.friction > 0.0 else 0,
+                n_tangents=(1 if c.rolling else 2) if c.friction > 0.0 else 0,
                 mu=c.friction,
                 clearance=c.clearance,
                 lateral_group=np.tile(np.asarray(c.lateral, dtype=np.int64), (p, 1)),
@@ -598,3 +602,46 @@ def _plane_rows(
         mu=mus if np.any(mus > 0.0) else None,
         tangents=tangents,
     )
+
+
+def carried_weight(sc: Scenario, tagged: TaggedMesh, fields: CellFields) -> float:
+    """The weight (N) of the frame's bodies held by contacts alone: its connected pieces
+    (ropes included) with no support vertex, their beams' ρ A L and their point masses
+    (collective)."""
+    import dolfinx.mesh
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    msh = tagged.mesh
+    n_own = msh.topology.index_map(1).size_local
+    msh.topology.create_connectivity(1, 0)
+    c2v = msh.topology.connectivity(1, 0).array.reshape(-1, 2)[:n_own]
+    gv = np.asarray(msh.topology.index_map(0).local_to_global(c2v.ravel()), dtype=np.int64)
+    X = msh.geometry.x[dolfinx.mesh.entities_to_geometry(msh, 1, np.arange(n_own, dtype=np.int32))]
+    length = np.linalg.norm(X[:, 1] - X[:, 0], axis=1)
+    assert fields.section is not None
+    rho = np.broadcast_to(np.asarray(fields.rho, dtype=float), (fields.section.A.size,))
+    mass = rho[:n_own] * fields.section.A[:n_own] * length
+    parts = msh.comm.allgather((gv.reshape(-1, 2), mass))
+    edges = np.concatenate([p for p, _ in parts]).reshape(-1, 2)
+    cell_mass = np.concatenate([m for _, m in parts])
+    n = msh.topology.index_map(0).size_global
+    graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    supported = (
+        np.unique(
+            label[
+                np.concatenate(
+                    [tagged.global_vertices(tagged.facet_vertices(s.group)) for s in sc.support]
+                )
+            ]
+        )
+        if sc.support
+        else np.zeros(0, dtype=np.int64)
+    )
+    free = ~np.isin(label[edges[:, 0]], supported)
+    total = float(cell_mass[free].sum())
+    for ms in sc.mass:
+        ids = tagged.global_vertices(tagged.facet_vertices(ms.group))
+        total += ms.mass * float(np.mean(~np.isin(label[ids], supported)))
+    return total * float(np.linalg.norm(sc.loading.gravity))

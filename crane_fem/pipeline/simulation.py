@@ -13,6 +13,7 @@ from crane_fem.errors import ScenarioError
 from crane_fem.geometry import groups
 from crane_fem.pipeline.constraints import ConstraintStage, build_constraints
 from crane_fem.pipeline.integrators import IntegratorStage, build_integrators
+from crane_fem.pipeline.kinds import concrete_scenario
 from crane_fem.pipeline.mesh import MeshStage, build_mesh
 from crane_fem.pipeline.models import ModelStage, build_models
 from crane_fem.reduction import check_modes, interior_dofs
@@ -105,6 +106,7 @@ class Simulation:
 
 def create_simulation(sc: Scenario, comm: MPI.Comm) -> Simulation:
     """The set-up pipeline of a scenario with subdomains (collective over ``comm``)."""
+    sc = concrete_scenario(sc, comm)
     mesh = build_mesh(sc, comm)
     models = build_models(sc, mesh)
     try:
@@ -228,6 +230,7 @@ def check_simulation(sc: Scenario, comm: MPI.Comm) -> SimulationCheck:
         ScenarioError: the same one line on every rank.
     """
     _read_records(sc, comm)
+    sc = concrete_scenario(sc, comm)
     mesh = build_mesh(sc, comm)
     models = build_models(sc, mesh)
     try:

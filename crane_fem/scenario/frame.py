@@ -11,9 +11,9 @@ from __future__ import annotations
 import functools
 import math
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import field_validator, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from crane_fem.scenario.base import NonNegativeFloat, PositiveFloat, Section, Vector3
 
@@ -114,12 +114,12 @@ class BeamSection(Section):
             if value is None:
                 raise ValueError(f"{key}: missing ({what} takes {', '.join(need)})")
             if not value > 0.0:
-                raise ValueError(f"{key} = {value}: must be positive")
+                raise ValueError(f"{key}: must be positive, got {value}")
         direct = ("k1", "k2", "c1", "c2")
         for key in direct:
             value = getattr(self, key)
             if value is not None and not value > 0.0:
-                raise ValueError(f"{key} = {value}: must be positive")
+                raise ValueError(f"{key}: must be positive, got {value}")
         others = [
             k
             for k in ("b", "h", "t_web", "t_flange", "d", "t", "A", "I1", "I2", "J")
@@ -178,7 +178,9 @@ class LineContact(Section):
     across elements. ``offset``: the contact surface's distance from the line's axis along
     ``normal`` (a rail top above a girder's axis; m); ``friction``: Coulomb's μ; with
     ``clearance`` (m), also a lateral pair of unilateral contacts (flanges), that far either
-    side across the line, frictionless."""
+    side across the line, frictionless: their contact groups are named ``flange_names`` (the
+    side of −l first, l = n × t across the line), default ``<name>_flange_in``, ``_out``.
+    ``rolling``: a free-rolling wheel, its friction across the line only (none along it)."""
 
     type: Literal["point-on-line"]
     points: str
@@ -188,12 +190,25 @@ class LineContact(Section):
     friction: NonNegativeFloat = 0.0
     clearance: NonNegativeFloat | None = None
     name: str | None = None
+    flange_names: Annotated[list[str], Field(min_length=2, max_length=2)] | None = None
+    rolling: bool = False
 
     @model_validator(mode="after")
     def _normal(self) -> LineContact:
         if not any(self.normal):
             raise ValueError("normal: must not be the zero vector")
+        if self.flange_names is not None and self.clearance is None:
+            raise ValueError("flange_names: applies to a contact with a clearance (flanges)")
+        if self.rolling and self.friction <= 0.0:
+            raise ValueError("rolling: applies to a contact with friction")
         return self
+
+    @property
+    def lateral_names(self) -> list[str]:
+        """The names of the lateral rows' groups (the −l side's, then the +l side's)."""
+        if self.flange_names is not None:
+            return list(self.flange_names)
+        return [f"{self.label}_flange_in", f"{self.label}_flange_out"]
 
     @property
     def label(self) -> str:
@@ -235,11 +250,12 @@ class Rope(Section):
     stiffness: PositiveFloat
     name: str | None = None
 
-    @model_validator(mode="after")
-    def _length(self) -> Rope:
-        if not self.length > 0.0:
-            raise ValueError(f"length = {self.length}: a rope needs a positive length (m)")
-        return self
+    @field_validator("length")
+    @classmethod
+    def _length(cls, length: float) -> float:
+        if not length > 0.0:
+            raise ValueError(f"a rope needs a positive length (m), got {length}")
+        return length
 
     @property
     def label(self) -> str:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 from pydantic import BaseModel, ValidationError
@@ -161,6 +162,12 @@ def format_error(source: str, exc: ValidationError) -> str:
         msg = err["msg"]
         if msg.startswith("Value error, "):
             msg = msg[len("Value error, ") :]
+            # A table's validator naming one of its keys first ("b = -1: must be positive",
+            # "h: missing"): that key is the location.
+            head = re.match(r"([A-Za-z_][A-Za-z0-9_]*)(:| =)", msg)
+            if head and path and head.group(1) in _allowed_keys(Scenario, (*raw, "_")):
+                path = f"{path}.{head.group(1)}"
+                msg = msg[len(head.group(1)) :].lstrip(": ") if head.group(2) == ":" else msg
         if kind != "value_error":
             msg = f"{msg} (got {err['input']!r})"
     others = [o or "(top level)" for o in dict.fromkeys(_path(e["loc"]) for e in errors[1:])]

@@ -25,6 +25,7 @@ from crane_fem.scenario.coupling import (
     SubdomainSpec,
 )
 from crane_fem.scenario.frame import BeamSection, FrameModel, LineContact, PlaneContact, Rope
+from crane_fem.scenario.frame_crane import FrameCraneModel
 from crane_fem.scenario.loading import Loading
 from crane_fem.scenario.model import BarModel, BlockModel, BoxBeamModel, CraneModel, GmshModel
 from crane_fem.scenario.sections import (
@@ -55,7 +56,13 @@ class Scenario(Section):
 
     name: str = "scenario"
     model: Annotated[
-        BarModel | BoxBeamModel | CraneModel | BlockModel | GmshModel | FrameModel,
+        BarModel
+        | BoxBeamModel
+        | CraneModel
+        | BlockModel
+        | GmshModel
+        | FrameModel
+        | FrameCraneModel,
         Field(discriminator="kind"),
     ]
     material: Material | list[GroupMaterial]
@@ -87,7 +94,7 @@ class Scenario(Section):
         return (
             bool(self.subdomain)
             or self.coupling is not None
-            or isinstance(self.model, BlockModel | GmshModel | FrameModel)
+            or isinstance(self.model, BlockModel | GmshModel | FrameModel | FrameCraneModel)
         )
 
     @property
@@ -337,6 +344,17 @@ class Scenario(Section):
         block = isinstance(mdl, BlockModel)
         if isinstance(mdl, GmshModel | FrameModel):
             return self
+        if isinstance(mdl, FrameCraneModel):
+            for key in ("contact", "support", "mass", "section", "rope"):
+                if getattr(self, key):
+                    raise ValueError(
+                        f"{key}: model.kind 'frame_crane' makes its own [[{key}]] entries from "
+                        "its geometry keys (write the frame as model.kind 'frame' to give them)"
+                    )
+            if isinstance(self.material, list):
+                raise ValueError("material: model.kind 'frame_crane' takes one [material] table")
+            self._initial_velocity_only()
+            return self
         for i, c in enumerate(self.contact):
             if c.friction > 0.0 and c.type != "plane":
                 raise ValueError(
@@ -552,8 +570,15 @@ class Scenario(Section):
 
     @model_validator(mode="after")
     def _wheels_of_a_crane(self) -> Scenario:
-        if self.wheel != Wheel() and not isinstance(self.model, CraneModel):
-            raise ValueError("wheel: applies to model.kind 'crane' only (its wheel/rail pairs)")
+        if self.wheel != Wheel() and not isinstance(self.model, CraneModel | FrameCraneModel):
+            raise ValueError(
+                "wheel: applies to model.kind 'crane' and 'frame_crane' only (their wheels)"
+            )
+        if isinstance(self.model, FrameCraneModel) and self.wheel.contact != "nodes":
+            raise ValueError(
+                "wheel.contact: a frame crane's wheels always slide on their girders' lines "
+                "(leave wheel.contact out)"
+            )
         if self.time.mass_scaling is not None and not isinstance(
             self.model, CraneModel | GmshModel
         ):

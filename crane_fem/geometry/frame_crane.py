@@ -1,0 +1,296 @@
+"""The bi-girder overhead crane as a frame of Timoshenko beams (the paper's own crane model,
+THEORY.md §10), drawn from the 3D mock-up's parameters, and its scene as a frame's.
+
+Axes as the mock-up's: x along the runway (the end carriages), y along the span (the
+girders), z up. Members, each a line group:
+
+* ``end_carriage_1`` (y = w/2) and ``_2`` (y = span − w/2) along x at their mid-height,
+  clamped at both ends (point groups ``support_1..4``: ends at y = w/2 first, x < 0 first);
+* ``girder_1`` (x = −spacing/2) and ``girder_2`` along y at the girder's axis (with the default
+  section, the centroid of the girder and its rail joined), each split into the explicit
+  zones ``zone_k`` under wheel k (``zone_margin`` past the wheel either way, elements of
+  ``fine``) and the rest (elements of ``size``); ``links``: vertical members from each
+  girder's end down to its end carriage's axis;
+* ``trolley``: a grillage in the frame plate's mid-plane (beams along y over each rail and
+  across x at each wheel pair and at the trolley's centre), ``hook``: the two elements of the
+  centre cross beam at the centre node, where the hoisted mass sits (``hoist = "rigid"``:
+  the mass and a plate's rotary inertia) or hangs on ``rope`` (``hoist = "rope"``: a load
+  node ``rope_length`` below, on a tension-only rope);
+* ``wheel_k``: each wheel a vertical stub from the grillage down to the rail top, its foot
+  (point group ``wheel_point_k``) a point-on-line contact on ``zone_k`` at the rail top's
+  offset above the girder's axis, with the flanges' lateral rows (``flange_in_k`` towards the
+  crane's centre plane x = 0, ``flange_out_k``) when ``flanges``.
+
+The trolley grillage's members have the plate's thickness and a third of its length as width
+(its bending in both directions), its density scaled so that the grillage weighs what the
+plate does.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import itertools
+import json
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+from crane_fem.formulations import sections
+from crane_fem.geometry.frame_sketch import FrameSketch
+
+__all__ = [
+    "FrameCraneLayout",
+    "expand_frame_crane",
+    "frame_crane_layout",
+    "mesh_file",
+    "write_frame_crane_mesh",
+]
+
+
+@dataclass(frozen=True)
+class FrameCraneLayout:
+    """The frame crane's geometry: its sketch, its levels (m) and its default sections."""
+
+    sketch: FrameSketch
+    girder_axis: float
+    rail_top: float
+    trolley_level: float
+    wheels: list[tuple[float, float]]
+    girder: dict[str, Any]
+    trolley_density_factor: float
+
+
+def _girder_with_rail(m: Any) -> tuple[dict[str, Any], float]:
+    """The girder and its rail joined as one section (properties given directly), and the
+    height of its centroid (m)."""
+    hc, hg, hr = m.end_carriage_height, m.girder_height, m.rail_height
+    g = sections.rectangle(m.girder_width, hg)
+    r = sections.rectangle(m.rail_width, hr)
+    zg, zr = hc + 0.5 * hg, hc + hg + 0.5 * hr
+    A = g.A + r.A
+    zc = (g.A * zg + r.A * zr) / A
+    I1 = g.I1 + g.A * (zg - zc) ** 2 + r.I1 + r.A * (zr - zc) ** 2
+    props = {
+        "A": A,
+        "I1": I1,
+        "I2": g.I2 + r.I2,
+        "J": g.J + r.J,
+        "c1": 0.5 * m.girder_width,
+        "c2": max(hc + hg + hr - zc, zc - hc),
+    }
+    return props, zc
+
+
+def frame_crane_layout(m: Any) -> FrameCraneLayout:
+    """The frame crane of the :class:`~crane_fem.scenario.frame_crane.FrameCraneModel`
+    ``m`` (see the module docstring)."""
+    hc, hg, hr = m.end_carriage_height, m.girder_height, m.rail_height
+    rail_top = hc + hg + hr
+    girder, zc = _girder_with_rail(m)
+    axis = zc if m.girder is None else hc + 0.5 * hg
+    ze = 0.5 * hc
+    ys = (0.5 * m.end_carriage_width, m.span - 0.5 * m.end_carriage_width)
+    xs = (-0.5 * m.girder_spacing, 0.5 * m.girder_spacing)
+    half_ec = 0.5 * m.end_carriage_length
+    s = FrameSketch()
+    for k, y in enumerate(ys, start=1):
+        s.member(f"end_carriage_{k}", (-half_ec, y, ze), (half_ec, y, ze), size=m.size)
+    s.points("support_1", [(-half_ec, ys[0], ze)])
+    s.points("support_2", [(half_ec, ys[0], ze)])
+    s.points("support_3", [(-half_ec, ys[1], ze)])
+    s.points("support_4", [(half_ec, ys[1], ze)])
+    wheel_ys = (m.trolley_position - 0.5 * m.wheel_base, m.trolley_position + 0.5 * m.wheel_base)
+    wheels = [(x, y) for x in xs for y in wheel_ys]
+    reach = 0.5 * m.wheel_length + m.zone_margin
+    for k, x in enumerate(xs, start=1):
+        for y in ys:  # the links: girder end down to the end carriage
+            s.member("links", (x, y, axis), (x, y, ze), size=m.size)
+        cuts = [ys[0]]
+        for y in wheel_ys:
+            cuts += [y - reach, y + reach]
+        cuts.append(ys[1])
+        for j, (a, b) in enumerate(itertools.pairwise(cuts)):
+            if j % 2:  # a zone: wheel 2(k − 1) + (j + 1)/2
+                zone = 2 * (k - 1) + (j + 1) // 2
+                s.member(f"zone_{zone}", (x, a, axis), (x, b, axis), size=m.fine)
+            else:
+                s.member(f"girder_{k}", (x, a, axis), (x, b, axis), size=m.size)
+    level = rail_top + m.wheel_height + 0.5 * m.frame_thickness
+    y0, y1 = m.trolley_position - 0.5 * m.frame_length, m.trolley_position + 0.5 * m.frame_length
+    xw = 0.5 * m.girder_spacing + m.frame_overhang
+    centre = (0.0, m.trolley_position, level)
+    for x in xs:
+        s.member("trolley", (x, y0, level), (x, y1, level), size=m.size)
+    for y in wheel_ys:
+        s.member("trolley", (-xw, y, level), (xw, y, level), size=m.size)
+    s.member(
+        "trolley", (-xw, m.trolley_position, level), (xs[0], m.trolley_position, level), size=m.size
+    )
+    s.member(
+        "trolley", (xs[1], m.trolley_position, level), (xw, m.trolley_position, level), size=m.size
+    )
+    # The hook: the centre cross beam's two elements at the centre node.
+    hook = min(m.size, 0.5 * m.girder_spacing)
+    s.member(
+        "trolley",
+        (xs[0], m.trolley_position, level),
+        (-hook, m.trolley_position, level),
+        size=m.size,
+    )
+    s.member(
+        "trolley",
+        (hook, m.trolley_position, level),
+        (xs[1], m.trolley_position, level),
+        size=m.size,
+    )
+    s.member(
+        "hook", (-hook, m.trolley_position, level), (hook, m.trolley_position, level), elements=2
+    )
+    s.points("trolley_centre", [centre])
+    for k, (x, y) in enumerate(wheels, start=1):
+        s.member(f"wheel_{k}", (x, y, rail_top), (x, y, level), elements=2)
+        s.points(f"wheel_point_{k}", [(x, y, rail_top)])
+    if m.hoist == "rope":
+        load = (0.0, m.trolley_position, level - m.rope_length)
+        s.member("rope", centre, load, elements=1)
+        s.points("load", [load])
+    plate = (2.0 * xw) * m.frame_length * m.frame_thickness
+    width = m.frame_length / 3.0
+    lengths = 2.0 * m.frame_length + 3.0 * (2.0 * xw)
+    grillage = width * m.frame_thickness * lengths
+    return FrameCraneLayout(s, axis, rail_top, level, wheels, girder, plate / grillage)
+
+
+def _section(
+    given: Any, groups: list[str], orientation: list[float], default: dict[str, Any]
+) -> dict[str, Any]:
+    if given is not None:
+        return dict(given.entry(groups, orientation))
+    return {"groups": groups, "orientation": orientation, **default}
+
+
+def expand_frame_crane(data: dict[str, Any], m: Any, mesh_path: Path) -> dict[str, Any]:
+    """The frame crane scene ``data`` (a scenario mapping with ``model.kind =
+    "frame_crane"``, model ``m``) as a frame's: its mesh ``mesh_path`` (written already),
+    sections, materials, supports, masses, contacts (its ``[wheel]`` friction), rope."""
+    layout = frame_crane_layout(m)
+    out = copy.deepcopy(data)
+    out["model"] = {"kind": "frame", "mesh": str(mesh_path)}
+    wheel = out.pop("wheel", {}) or {}
+    mat = data["material"]
+    girders = ["girder_1", "girder_2", *(f"zone_{k}" for k in range(1, 5))]
+    wheels = [f"wheel_{k}" for k in range(1, 5)]
+    sec = [
+        _section(
+            m.end_carriage,
+            ["end_carriage_1", "end_carriage_2"],
+            [0.0, 0.0, 1.0],
+            {"shape": "rectangle", "b": m.end_carriage_width, "h": m.end_carriage_height},
+        ),
+        # a2 = z: I1 (about a1 = −x) is the girder's vertical bending.
+        _section(m.girder, girders, [0.0, 0.0, 1.0], layout.girder),
+        # The links (vertical) carry the girder's section, a1 = x as the girder's.
+        _section(m.girder, ["links"], [0.0, 1.0, 0.0], layout.girder),
+        _section(
+            m.trolley,
+            ["trolley", "hook"],
+            [0.0, 0.0, 1.0],
+            {"shape": "rectangle", "b": m.frame_length / 3.0, "h": m.frame_thickness},
+        ),
+        {
+            "groups": wheels,
+            "orientation": [1.0, 0.0, 0.0],
+            "shape": "rectangle",
+            "b": m.wheel_length,
+            "h": m.wheel_width,
+        },
+    ]
+    out["section"] = sec
+    if m.trolley is None and isinstance(mat, dict):  # the grillage weighs the plate's mass
+        structure = {k: v for k, v in mat.items() if k != "groups"}
+        others = ["end_carriage_1", "end_carriage_2", "links", *girders, *wheels]
+        trolley = dict(structure, rho=structure["rho"] * layout.trolley_density_factor)
+        out["material"] = [
+            dict(structure, groups=others),
+            dict(trolley, groups=["trolley", "hook"]),
+        ]
+    out["support"] = [{"group": f"support_{k}"} for k in range(1, 5)]
+    masses = []
+    if m.hoisted_mass > 0.0:
+        if m.hoist == "rigid":
+            w = m.girder_spacing + 2.0 * m.frame_overhang
+            L, t, mass = m.frame_length, m.frame_thickness, m.hoisted_mass
+            inertia = [
+                mass * (L**2 + t**2) / 12,
+                mass * (w**2 + t**2) / 12,
+                mass * (w**2 + L**2) / 12,
+            ]
+            masses.append({"group": "trolley_centre", "mass": mass, "inertia": inertia})
+        else:
+            masses.append({"group": "load", "mass": m.hoisted_mass})
+            out["rope"] = [
+                {
+                    "line": "rope",
+                    "length": m.rope_length,
+                    "stiffness": m.rope_stiffness,
+                    "name": "rope",
+                }
+            ]
+    if masses:
+        out["mass"] = masses
+    friction = float(wheel.get("friction", 0.0))
+    braked = bool(wheel.get("braked", True))
+    contacts = []
+    for k, (x, _) in enumerate(layout.wheels, start=1):
+        entry: dict[str, Any] = {
+            "type": "point-on-line",
+            "points": f"wheel_point_{k}",
+            "line": f"zone_{k}",
+            "offset": layout.rail_top - layout.girder_axis,
+            "normal": [0.0, 0.0, 1.0],
+            "friction": friction,
+            "name": f"wheel_{k}",
+        }
+        if friction > 0.0 and not braked:
+            entry["rolling"] = True
+        if m.flanges:
+            entry["clearance"] = m.flange_clearance
+            # The lateral rows: the −l side's first, l = n × t = −x along the girders (+y):
+            # towards x = 0 for girder 1 (x < 0), away from it for girder 2.
+            pair = [f"flange_in_{k}", f"flange_out_{k}"]
+            entry["flange_names"] = pair if x < 0.0 else pair[::-1]
+        contacts.append(entry)
+    out["contact"] = contacts
+    return out
+
+
+def mesh_file(m: Any) -> Path:
+    """Where the frame crane of the model ``m`` is meshed: a file named by the hash of its
+    geometry, in the system's temporary directory (the same on every rank)."""
+    keys = m.model_dump(exclude={"hoisted_mass", "girder", "end_carriage", "trolley"})
+    digest = hashlib.sha256(json.dumps(keys, sort_keys=True).encode()).hexdigest()[:16]
+    return Path(tempfile.gettempdir()) / "crane_fem_frames" / f"frame_crane_{digest}.msh"
+
+
+def write_frame_crane_mesh(m: Any, comm: MPI.Comm) -> Path:
+    """Mesh the frame crane on rank 0 (unless its file exists) and return the file's path
+    (collective)."""
+    path = mesh_file(m)
+    error = None
+    if comm.rank == 0 and not path.is_file():
+        try:
+            tmp = path.with_suffix(f".{id(m)}.msh")
+            frame_crane_layout(m).sketch.write(tmp)
+            tmp.replace(path)
+        except Exception as exc:  # gmsh raises bare Exception
+            error = f"model: the frame crane could not be meshed: {exc}"
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        from crane_fem.errors import ScenarioError
+
+        raise ScenarioError(error)
+    return path

@@ -1,0 +1,146 @@
+"""``[model] kind = "frame_crane"``: the paper's own crane model, a frame of Timoshenko beams
+with the 3D mock-up's parameters (crane_fem.geometry.frame_crane draws it and turns the scene
+into a frame's)."""
+
+# Pydantic copies a field's default into each instance; ruff cannot see across modules that
+# Section is a pydantic model.
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import model_validator
+
+from crane_fem.scenario.base import NonNegativeFloat, PositiveFloat, Section
+from crane_fem.scenario.frame import SHAPE_KEYS
+
+__all__ = ["FRAME_CRANE_GROUPS", "FrameCraneModel", "SectionShape"]
+
+
+class SectionShape(Section):
+    """A member's cross-section, as ``[[section]]``'s shape keys (no groups, no
+    orientation: the crane's members are oriented by their position)."""
+
+    shape: Literal["rectangle", "box", "circle", "tube"] | None = None
+    b: float | None = None
+    h: float | None = None
+    t_web: float | None = None
+    t_flange: float | None = None
+    d: float | None = None
+    t: float | None = None
+    A: float | None = None
+    I1: float | None = None
+    I2: float | None = None
+    J: float | None = None
+    k1: float | None = None
+    k2: float | None = None
+    c1: float | None = None
+    c2: float | None = None
+
+    @model_validator(mode="after")
+    def _complete(self) -> SectionShape:
+        need = SHAPE_KEYS[self.shape]
+        what = f"shape {self.shape!r}" if self.shape else "a section without shape"
+        for key in need:
+            value = getattr(self, key)
+            if value is None:
+                raise ValueError(f"{key}: missing ({what} takes {', '.join(need)})")
+            if not value > 0.0:
+                raise ValueError(f"{key}: must be positive, got {value}")
+        return self
+
+    def entry(self, groups: list[str], orientation: list[float]) -> dict[str, object]:
+        """Its ``[[section]]`` table for the line groups ``groups``."""
+        out: dict[str, object] = {"groups": groups, "orientation": orientation}
+        out.update({k: v for k, v in self.model_dump().items() if v is not None})
+        return out
+
+
+#: The frame crane's line groups: the members, each wheel's stub and each explicit girder zone.
+FRAME_CRANE_GROUPS = [
+    "end_carriage_1",
+    "end_carriage_2",
+    "girder_1",
+    "girder_2",
+    "links",
+    "trolley",
+    *(f"zone_{k}" for k in range(1, 5)),
+    *(f"wheel_{k}" for k in range(1, 5)),
+]
+
+
+class FrameCraneModel(Section):
+    """The bi-girder overhead crane as a frame (crane_fem.geometry.frame_crane): the mock-up's
+    dimensions (as ``kind = "crane"``, metres) where they apply, beam sections for the
+    members (default: the mock-up's rectangles, the rail joined to its girder), a hoisted mass
+    rigidly attached to the trolley or hanging on a rope, girder elements of ``size`` and
+    ``fine`` in the explicit zones (``zone_margin`` past each wheel at either end)."""
+
+    kind: Literal["frame_crane"]
+    span: PositiveFloat = 4.0
+    girder_spacing: PositiveFloat = 1.0
+    girder_width: PositiveFloat = 0.12
+    girder_height: PositiveFloat = 0.20
+    end_carriage_length: PositiveFloat = 1.6
+    end_carriage_width: PositiveFloat = 0.15
+    end_carriage_height: PositiveFloat = 0.15
+    rail_width: PositiveFloat = 0.05
+    rail_height: PositiveFloat = 0.04
+    trolley_position: float = 2.0
+    wheel_base: PositiveFloat = 0.6
+    wheel_width: PositiveFloat = 0.05
+    wheel_length: PositiveFloat = 0.08
+    wheel_height: PositiveFloat = 0.06
+    frame_overhang: PositiveFloat = 0.10
+    frame_length: PositiveFloat = 0.8
+    frame_thickness: PositiveFloat = 0.05
+    zone_margin: PositiveFloat = 0.1
+    size: PositiveFloat = 0.1
+    fine: PositiveFloat = 0.025
+    flanges: bool = False
+    flange_clearance: NonNegativeFloat = 0.005
+    hoisted_mass: NonNegativeFloat = 0.0
+    hoist: Literal["rigid", "rope"] = "rigid"
+    rope_length: PositiveFloat | None = None
+    rope_stiffness: PositiveFloat | None = None
+    girder: SectionShape | None = None
+    end_carriage: SectionShape | None = None
+    trolley: SectionShape | None = None
+
+    @model_validator(mode="after")
+    def _consistent(self) -> FrameCraneModel:
+        if self.hoist == "rope":
+            if self.rope_length is None or self.rope_stiffness is None:
+                raise ValueError("hoist = 'rope' needs rope_length (m) and rope_stiffness (N/m)")
+            if self.hoisted_mass <= 0.0:
+                raise ValueError("hoist = 'rope' needs a hoisted_mass > 0 (kg) on the rope")
+        elif self.rope_length is not None or self.rope_stiffness is not None:
+            raise ValueError("rope_length and rope_stiffness apply to hoist = 'rope'")
+        half = 0.5 * max(self.wheel_base + self.wheel_length, self.frame_length)
+        lo, hi = self.end_carriage_width, self.span - self.end_carriage_width
+        if not lo + half <= self.trolley_position <= hi - half:
+            raise ValueError(
+                f"trolley_position = {self.trolley_position} puts the trolley off the girders "
+                f"(allowed: [{lo + half:g}, {hi - half:g}] for span {self.span})"
+            )
+        if self.zone_margin >= 0.5 * self.wheel_base:
+            raise ValueError(
+                f"zone_margin = {self.zone_margin}: the explicit zones of a rail's two wheels "
+                f"overlap (at most half the wheel_base, {0.5 * self.wheel_base:g})"
+            )
+        reach = self.trolley_position + 0.5 * self.wheel_base + self.zone_margin
+        if reach > hi or self.trolley_position - 0.5 * self.wheel_base - self.zone_margin < lo:
+            raise ValueError(
+                f"zone_margin = {self.zone_margin}: the explicit zones reach past the end carriages"
+            )
+        if self.girder_spacing <= self.girder_width:
+            raise ValueError("girder_spacing must exceed girder_width")
+        if self.end_carriage_length < self.girder_spacing + self.girder_width:
+            raise ValueError("end_carriage_length must span both girders")
+        if self.fine > self.size:
+            raise ValueError("fine must not exceed size")
+        return self
+
+    @property
+    def groups(self) -> list[str]:
+        return list(FRAME_CRANE_GROUPS) + (["rope"] if self.hoist == "rope" else [])
