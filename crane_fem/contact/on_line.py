@@ -115,22 +115,61 @@ def element_axes(
 
 
 def project_on_line(
-    x: FloatArray, a: FloatArray, b: FloatArray
+    x: FloatArray, a: FloatArray, b: FloatArray, ends: npt.NDArray[np.bool_] | None = None
 ) -> tuple[IntArray, FloatArray, npt.NDArray[np.bool_]]:
     """Each point of ``x`` (p, 3) on the elements from ``a`` to ``b`` (e, 3): the nearest
-    element whose span holds its projection, its abscissa ξ ∈ [0, 1] along it, and whether
-    one does."""
+    element whose span holds its projection (else, at a kink of the line that leaves a point
+    offset above it between two elements' spans, the nearest element's nearer end), its
+    abscissa ξ ∈ [0, 1] along it, and whether the point is over the line: not past one of
+    its ends. ``ends``: (e, 2) whether each element's first and second vertex ends the line
+    (default: the line is a chain, its ends the vertices of one element only)."""
     d = b - a
     length2 = np.einsum("ej,ej->e", d, d)
     rel = x[:, None, :] - a[None, :, :]  # (p, e, 3)
     s = np.einsum("pej,ej->pe", rel, d) / length2[None, :]
     inside = (s >= -1e-9) & (s <= 1.0 + 1e-9)
     foot = a[None, :, :] + np.clip(s, 0.0, 1.0)[:, :, None] * d[None, :, :]
-    dist = np.where(inside, np.linalg.norm(x[:, None, :] - foot, axis=2), np.inf)
-    element = np.argmin(dist, axis=1).astype(np.int64)
+    dist = np.linalg.norm(x[:, None, :] - foot, axis=2)
+    held = np.where(inside, dist, np.inf)
     rows = np.arange(x.shape[0])
-    found = np.isfinite(dist[rows, element])
-    return element, np.clip(s[rows, element], 0.0, 1.0), found
+    element = np.argmin(held, axis=1).astype(np.int64)
+    none = ~np.isfinite(held[rows, element])
+    element[none] = np.argmin(dist[none], axis=1)
+    xi = np.clip(s[rows, element], 0.0, 1.0)
+    if ends is None:
+        ends = _line_ends(a, b)
+    past = (s[rows, element] < -1e-9) & ends[element, 0]
+    past |= (s[rows, element] > 1.0 + 1e-9) & ends[element, 1]
+    return element, xi, ~(none & past)
+
+
+def _dot(a: FloatArray, b: FloatArray) -> FloatArray:
+    """Row-wise dot products of two (p, 3) arrays."""
+    out: FloatArray = a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1] + a[:, 2] * b[:, 2]
+    return out
+
+
+def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
+    """Row-wise cross products of two (p, 3) arrays (np.cross costs ten times more on the
+    few rows the hook before each macro step takes)."""
+    return np.column_stack(
+        [
+            a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1],
+            a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
+            a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0],
+        ]
+    )
+
+
+def _line_ends(a: FloatArray, b: FloatArray) -> npt.NDArray[np.bool_]:
+    """(e, 2): whether each element's first and second end is a vertex of no other element
+    (by coordinates, to 1e-9 of the line's size)."""
+    pts = np.concatenate([a, b])
+    scale = max(float(np.ptp(pts, axis=0).max(initial=0.0)), 1e-300)
+    key = np.round(pts / (1e-9 * scale)).astype(np.int64)
+    _, inverse, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    once = counts[inverse.ravel()] == 1
+    return np.column_stack([once[: a.shape[0]], once[a.shape[0] :]])
 
 
 def row_coefficients(
@@ -201,6 +240,22 @@ class LineContacts:
             element_axes(self.X[se[:, 0]], self.X[se[:, 1]], np.asarray(f.normal, dtype=float))
             for f, se in zip(families, self._slot_e, strict=True)
         ]
+        # The points of every family, flat, and where their rows sit among the rows.
+        self._all_points = np.concatenate(self._slot_p) if families else np.zeros(0, dtype=np.int64)
+        none = [np.zeros(0)]
+        self._offset = np.concatenate([np.full(f.p, f.offset) for f in families] or none)
+        self._shift = np.concatenate([np.asarray(f.shift, float) for f in families] or none)
+        rpp = np.concatenate([np.full(f.p, f.rows_per_point) for f in families] or none)
+        rpp = rpp.astype(np.int64)
+        self._n_rows = int(rpp.sum())
+        self._normal_row = np.r_[0, np.cumsum(rpp)[:-1]].astype(np.int64) if rpp.size else rpp
+        self._lateral_point = rpp == 3
+        self._lateral_row = self._normal_row[self._lateral_point] + 1
+        self._clearance = np.concatenate(
+            [np.full(f.p, f.clearance if f.clearance is not None else 0.0) for f in families]
+            or none
+        )
+        self._ends = [_line_ends(self.X[se[:, 0]], self.X[se[:, 1]]) for se in self._slot_e]
         self.repairs = 0
         self.pairings = [self._project(j, self._reference(), 0.0) for j in range(len(families))]
         self.g0 = self._values(self.pairings, self._reference())
@@ -230,7 +285,9 @@ class LineContacts:
         """
         f = self.families[j]
         se, sp = self._slot_e[j], self._slot_p[j]
-        element, xi, found = project_on_line(x[sp, :3], x[se[:, 0], :3], x[se[:, 1], :3])
+        element, xi, found = project_on_line(
+            x[sp, :3], x[se[:, 0], :3], x[se[:, 1], :3], self._ends[j]
+        )
         if not np.all(found):
             k = int(np.flatnonzero(~found)[0])
             label = int(f.label[k]) if f.label.size else k
@@ -269,19 +326,29 @@ class LineContacts:
     def _values(self, pairings: list[LinePairing], x: FloatArray) -> FloatArray:
         """Every row's gap for the ``pairings`` at the positions and rotations ``x`` (ids,
         6): the normal rows' distance above the rail top plus c_p (``shift``), the lateral
-        rows' clearance left."""
-        out = []
-        for j, (f, pairing) in enumerate(zip(self.families, pairings, strict=True)):
-            coeff, _, slots = self._row_terms(j, pairing)
-            # Σ coefficient · (position, rotation) over the point and the element's ends:
-            # n·(x_p − Σ N_k x_k) − Σ N_k θ_k·(e × n); the rail top is offset above the axis.
-            value = np.einsum("prvc,pvc->pr", coeff, x[slots])
-            base = np.zeros((f.p, f.rows_per_point))
-            base[:, 0] = f.shift - f.offset
-            if f.clearance is not None:
-                base[:, 1:] = f.clearance
-            out.append((value + base).ravel())
-        return np.concatenate(out) if out else np.zeros(0)
+        rows' clearance left: the rows of :meth:`rows` applied to ``x``, evaluated for all
+        points at once (it runs before every macro step)."""
+        if not self.families:
+            return np.zeros(0)
+        el = [pr.element for pr in pairings]
+        xi = np.concatenate([pr.xi for pr in pairings])
+        n = np.concatenate([ax[1][e] for ax, e in zip(self._axes, el, strict=True)])
+        lat = np.concatenate([ax[2][e] for ax, e in zip(self._axes, el, strict=True)])
+        ends = np.concatenate([se[e] for se, e in zip(self._slot_e, el, strict=True)])
+        sp = self._all_points
+        N0, N1 = (1.0 - xi)[:, None], xi[:, None]
+        rel = x[sp, :3] - N0 * x[ends[:, 0], :3] - N1 * x[ends[:, 1], :3]
+        theta = N0 * x[ends[:, 0], 3:] + N1 * x[ends[:, 1], 3:]
+        e = self._offset[:, None] * n
+        # n·(x_p − Σ N_k x_k) − Σ N_k θ_k·(e × n); the rail top is offset above the axis.
+        normal = _dot(rel, n) - _dot(theta, _cross(e, n)) + self._shift - self._offset
+        side = _dot(rel, lat) - _dot(theta, _cross(e, lat))
+        out = np.empty(self._n_rows)
+        out[self._normal_row] = normal
+        has = self._lateral_point
+        out[self._lateral_row] = self._clearance[has] - side[has]
+        out[self._lateral_row + 1] = self._clearance[has] + side[has]
+        return out
 
     # -- rows -------------------------------------------------------------------------------
     def rows(self) -> ContactSet:

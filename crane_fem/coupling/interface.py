@@ -8,7 +8,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 
 from crane_fem.contact import ContactSet
-from crane_fem.subdomains import Subdomain
+from crane_fem.subdomains import Subdomain, global_ids
 
 __all__ = ["build_interface", "constraint_set", "zone_labels"]
 
@@ -54,15 +54,19 @@ def build_interface(
 ) -> tuple[IntArray, ContactSet, ContactSet]:
     """Duplicated interface DOFs: constraint L_E V_E + L_I V_I = 0 (L_E = +1, L_I = −1).
 
-    Interface vertices are the parent vertices on the boundary of both submeshes, minus clamped
-    ones (fixed on both sides already). Works when the interface is split across ranks: each
-    rank contributes the terms of the DOFs it owns (collective).
+    Interface vertices are the parent vertices of both submeshes (on a solid's, their shared
+    boundary; a frame's joint may be inside one of them: a trolley's wheel stub ends inside
+    its grillage), minus clamped ones (fixed on both sides already). Works when the interface
+    is split across ranks: each rank contributes the terms of the DOFs it owns (collective).
 
     Returns:
         ``(vertices, L_E, L_I)``: sorted global parent vertex ids and the two constraint sets
         with rows ``k·bs + c``.
     """
-    both = np.intersect1d(explicit.boundary_vertices(), implicit.boundary_vertices())
+    comm = explicit.submesh.comm
+    both = np.intersect1d(
+        global_ids(comm, explicit.vertex_global), global_ids(comm, implicit.vertex_global)
+    )
     fixed = np.union1d(explicit.fixed_vertices, implicit.fixed_vertices)
     vertices = np.setdiff1d(both, fixed).astype(np.int64)
     n = vertices.size * explicit.bs

@@ -67,6 +67,7 @@ class _Coefficients:
         self.A, self.I1, self.I2, self.J, self.k1, self.k2 = (
             coefficient(msh, np.asarray(getattr(s, k), dtype=np.float64)) for k in scalars
         )
+        self.R = coefficient(msh, np.asarray(s.rotary, dtype=np.float64))
         vec = [coefficient(msh, np.asarray(getattr(s, k))) for k in ("t", "a1", "a2")]
         self.t, self.a1, self.a2 = vec
 
@@ -189,8 +190,11 @@ class TimoshenkoBeam:
             + sum(k[i] * eu[i] * ew[i] for i in (1, 2)) * dx1
         )
         t, a1, a2 = c.t, c.a1, c.a2
-        I1, I2 = c.I1, c.I2
-        Ip = I1 + I2
+        # The rotary inertia about each bending axis times the section's factor (1 unless a
+        # member's is scaled), at most the polar moment; about the axis, the polar moment.
+        Ip = c.I1 + c.I2
+        I1 = ufl.min_value(c.R * c.I1, Ip)
+        I2 = ufl.min_value(c.R * c.I2, Ip)
 
         def rotary(x: ufl.core.expr.Expr, y: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
             return (

@@ -34,6 +34,9 @@ class SectionFields:
         circular: True where the section is a circle or a tube (the extreme-fibre bending
             stress is √(M1² + M2²) c / I), False for the corner sum of a rectangle or box.
         Wt: torsional section modulus (m³): the largest torsional shear stress is T / Wt.
+        rotary: the factor on the section's rotary inertia about its bending axes in the
+            masses, each at most the polar moment I1 + I2 (1: the section's own; more: the
+            explicit step's lever on a thin member's thickness-shear mode, THEORY.md §10).
         t, a1, a2: (n, 3) the unit tangent and the local axes (a right-handed frame).
     """
 
@@ -47,6 +50,7 @@ class SectionFields:
     c2: FloatArray
     circular: npt.NDArray[np.bool_]
     Wt: FloatArray
+    rotary: FloatArray
     t: FloatArray
     a1: FloatArray
     a2: FloatArray

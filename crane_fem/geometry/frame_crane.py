@@ -51,6 +51,10 @@ __all__ = [
 ]
 
 
+#: Changes with the drawing below, so that a mesh cached by an older one is not reused.
+LAYOUT_VERSION = 3
+
+
 @dataclass(frozen=True)
 class FrameCraneLayout:
     """The frame crane's geometry: its sketch, its levels (m) and its default sections."""
@@ -152,7 +156,7 @@ def frame_crane_layout(m: Any) -> FrameCraneLayout:
     )
     s.points("trolley_centre", [centre])
     for k, (x, y) in enumerate(wheels, start=1):
-        s.member(f"wheel_{k}", (x, y, rail_top), (x, y, level), elements=2)
+        s.member(f"wheel_{k}", (x, y, rail_top), (x, y, level), elements=1)
         s.points(f"wheel_point_{k}", [(x, y, rail_top)])
     if m.hoist == "rope":
         load = (0.0, m.trolley_position, level - m.rope_length)
@@ -209,6 +213,8 @@ def expand_frame_crane(data: dict[str, Any], m: Any, mesh_path: Path) -> dict[st
             "h": m.wheel_width,
         },
     ]
+    for entry in sec[3:]:  # the trolley's and the wheels' thin members
+        entry["rotary_scale"] = m.rotary_scale
     out["section"] = sec
     if m.trolley is None and isinstance(mat, dict):  # the grillage weighs the plate's mass
         structure = {k: v for k, v in mat.items() if k != "groups"}
@@ -272,6 +278,7 @@ def mesh_file(m: Any) -> Path:
     """Where the frame crane of the model ``m`` is meshed: a file named by the hash of its
     geometry, in the system's temporary directory (the same on every rank)."""
     keys = m.model_dump(exclude={"hoisted_mass", "girder", "end_carriage", "trolley"})
+    keys["layout"] = LAYOUT_VERSION
     digest = hashlib.sha256(json.dumps(keys, sort_keys=True).encode()).hexdigest()[:16]
     return Path(tempfile.gettempdir()) / "crane_fem_frames" / f"frame_crane_{digest}.msh"
 

@@ -145,6 +145,58 @@ def _rows1(
 
 
 @numba.njit(cache=True)
+def _rows6(
+    indptr: IntArray,
+    indices: IntArray,
+    data: FloatArray,
+    u: FloatArray,
+    vh: FloatArray,
+    ku_out: FloatArray,
+    minv: FloatArray,
+    mass: FloatArray,
+    base: FloatArray,
+    shapes: FloatArray,
+    coef: FloatArray,
+    alpha: float,
+    h: float,
+    rows: IntArray,
+) -> tuple[float, float]:
+    """:func:`_rows3` for bs = 6 (beams: three translations, three rotations)."""
+    ext = 0.0
+    damp = 0.0
+    n_shape = coef.size
+    s = np.empty(6)
+    x = np.empty(6)
+    for rr in range(rows.size):
+        r = rows[rr]
+        for a in range(6):
+            s[a] = 0.0
+        for jj in range(indptr[r], indptr[r + 1]):
+            c = 6 * indices[jj]
+            for b in range(6):
+                x[b] = u[c + b]
+            for a in range(6):
+                s[a] += (
+                    (data[jj, a, 0] * x[0] + data[jj, a, 1] * x[1])
+                    + (data[jj, a, 2] * x[2] + data[jj, a, 3] * x[3])
+                    + (data[jj, a, 4] * x[4] + data[jj, a, 5] * x[5])
+                )
+        for a in range(6):
+            i = 6 * r + a
+            f = base[i]
+            for k in range(n_shape):
+                f = f + coef[k] * shapes[k, i]
+            v = vh[i]
+            cv = alpha * mass[i] * v
+            w = v + h * minv[i] * (f - s[a] - cv)
+            vh[i] = w
+            ku_out[i] = s[a]
+            ext += (v + w) * f
+            damp += (v + w) * cv
+    return ext, damp
+
+
+@numba.njit(cache=True)
 def free_rows(
     z: Zone, st: ZoneState, rows: IntArray, coef: FloatArray, h: float, last: bool
 ) -> tuple[float, float]:
@@ -171,6 +223,23 @@ def free_rows(
         )
     if z.bs == 3 and z.beta == 0.0:
         return _rows3(
+            z.indptr,
+            z.indices,
+            z.data,
+            st.u,
+            st.vh,
+            st.ku,
+            z.minv,
+            z.mass,
+            z.load_base,
+            z.load_shapes,
+            coef,
+            z.alpha,
+            h,
+            rows,
+        )
+    if z.bs == 6 and z.beta == 0.0:
+        return _rows6(
             z.indptr,
             z.indices,
             z.data,

@@ -82,6 +82,7 @@ def frame_fields(sc: Scenario, tagged: TaggedMesh) -> CellFields:
         E[cells], nu[cells], rho[cells] = mat.E, mat.nu, mat.rho
     props = {k: np.zeros(n) for k in ("A", "I1", "I2", "J", "k1", "k2", "c1", "c2", "Wt")}
     circular = np.zeros(n, dtype=bool)
+    rotary = np.ones(n)
     t = _tangents(tagged)
     a1, a2 = np.zeros((n, 3)), np.zeros((n, 3))
     error = None
@@ -92,6 +93,7 @@ def frame_fields(sc: Scenario, tagged: TaggedMesh) -> CellFields:
         for k in props:
             props[k][cells] = getattr(p, k)
         circular[cells] = p.circular
+        rotary[cells] = sec.rotary_scale
         try:
             a1[cells], a2[cells] = local_axes(t[cells], np.asarray(sec.orientation))
         except ValueError:
@@ -103,7 +105,7 @@ def frame_fields(sc: Scenario, tagged: TaggedMesh) -> CellFields:
     errors = [e for e in msh.comm.allgather(error) if e is not None]
     if errors:
         raise ScenarioError(errors[0])
-    section = SectionFields(circular=circular, t=t, a1=a1, a2=a2, **props)
+    section = SectionFields(circular=circular, rotary=rotary, t=t, a1=a1, a2=a2, **props)
     return CellFields(E, nu, rho, section=section)
 
 

@@ -81,7 +81,9 @@ class BeamSection(Section):
     (``b``, ``h``, ``t_web``, ``t_flange``), ``circle`` (``d``), ``tube`` (``d``, ``t``), or
     the properties given directly (``A``, ``I1``, ``I2``, ``J``; optional ``k1``, ``k2``, the
     shear factors, default 5/6, and ``c1``, ``c2``, the extreme-fibre distances along the
-    axes, for the stress). Metres."""
+    axes, for the stress). Metres. ``rotary_scale`` multiplies the members' rotary inertia in
+    the masses (default 1; more lengthens the explicit step a stocky member's rotary terms
+    set: a lever to measure, not a default)."""
 
     groups: list[str]
     orientation: Vector3
@@ -100,6 +102,7 @@ class BeamSection(Section):
     k2: float | None = None
     c1: float | None = None
     c2: float | None = None
+    rotary_scale: PositiveFloat = 1.0
 
     @model_validator(mode="after")
     def _complete(self) -> BeamSection:

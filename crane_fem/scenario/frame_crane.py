@@ -64,6 +64,7 @@ FRAME_CRANE_GROUPS = [
     "girder_2",
     "links",
     "trolley",
+    "hook",
     *(f"zone_{k}" for k in range(1, 5)),
     *(f"wheel_{k}" for k in range(1, 5)),
 ]
@@ -74,7 +75,8 @@ class FrameCraneModel(Section):
     dimensions (as ``kind = "crane"``, metres) where they apply, beam sections for the
     members (default: the mock-up's rectangles, the rail joined to its girder), a hoisted mass
     rigidly attached to the trolley or hanging on a rope, girder elements of ``size`` and
-    ``fine`` in the explicit zones (``zone_margin`` past each wheel at either end)."""
+    ``fine`` in the explicit zones (``zone_margin`` past each wheel at either end);
+    ``rotary_scale`` raises the trolley's and the wheels' rotary inertia."""
 
     kind: Literal["frame_crane"]
     span: PositiveFloat = 4.0
@@ -96,13 +98,17 @@ class FrameCraneModel(Section):
     frame_thickness: PositiveFloat = 0.05
     zone_margin: PositiveFloat = 0.1
     size: PositiveFloat = 0.1
-    fine: PositiveFloat = 0.025
+    fine: PositiveFloat = 0.05
     flanges: bool = False
     flange_clearance: NonNegativeFloat = 0.005
     hoisted_mass: NonNegativeFloat = 0.0
     hoist: Literal["rigid", "rope"] = "rigid"
     rope_length: PositiveFloat | None = None
     rope_stiffness: PositiveFloat | None = None
+    #: The factor on the trolley's and the wheels' rotary inertia about their bending axes
+    #: (at most their polar moment): their thin members' thickness-shear modes set the
+    #: explicit step (THEORY.md §10's lever, measured in benchmarks/RESULTS.md).
+    rotary_scale: PositiveFloat = 1.0
     girder: SectionShape | None = None
     end_carriage: SectionShape | None = None
     trolley: SectionShape | None = None
