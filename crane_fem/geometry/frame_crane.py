@@ -213,8 +213,8 @@ def expand_frame_crane(data: dict[str, Any], m: Any, mesh_path: Path) -> dict[st
             "h": m.wheel_width,
         },
     ]
-    for entry in sec[3:]:  # the trolley's and the wheels' thin members
-        entry["rotary_scale"] = m.rotary_scale
+    for member in sec[3:]:  # the trolley's and the wheels' thin members
+        member["rotary_scale"] = m.rotary_scale
     out["section"] = sec
     if m.trolley is None and isinstance(mat, dict):  # the grillage weighs the plate's mass
         structure = {k: v for k, v in mat.items() if k != "groups"}
