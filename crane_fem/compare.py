@@ -209,7 +209,7 @@ def describe(result: dict[str, Any]) -> list[str]:
             f"(heterogeneous) / {len(w['lift_offs_explicit'])} (explicit)"
             + (f", onsets within {shift:.1f} macro steps" if shift is not None else "")
         )
-    if result.get("first_landing_s") is not None:
+    if result.get("first_landing_s") is not None and result["wheels"]:
         worst = max(
             max(w["wheel_uz_l2_to_first_landing"], w["rail_uz_l2_to_first_landing"])
             for w in result["wheels"].values()

@@ -50,6 +50,9 @@ IntArray = npt.NDArray[np.int64]
 
 #: A point is paired again once its abscissa moved by this fraction of its element.
 REPAIR_FRACTION = 0.05
+#: Below this drift along its element (a fraction of it) since the last update, a point's
+#: rows and gap stay as they are (the hook does nothing: no point slides).
+SLIDE_FRACTION = 1e-4
 
 
 @dataclass(frozen=True)
@@ -259,6 +262,7 @@ class LineContacts:
         self.repairs = 0
         self.pairings = [self._project(j, self._reference(), 0.0) for j in range(len(families))]
         self.g0 = self._values(self.pairings, self._reference())
+        self._along_ref = self._along(self._reference())
 
     # -- geometry (not collective: every rank holds the same coordinates) -------------------
     def _gather(self, local: FloatArray, k: int) -> FloatArray:
@@ -322,6 +326,19 @@ class LineContacts:
     def _reference(self) -> FloatArray:
         """(ids, 6): the reference positions, no rotation."""
         return np.c_[self.X, np.zeros_like(self.X)]
+
+    def _along(self, x: FloatArray) -> FloatArray:
+        """Each point's offset along its element from its paired foot, as a fraction of the
+        element's length, at the positions ``x`` (ids, 6) (not collective)."""
+        if not self.families:
+            return np.zeros(0)
+        el = [pr.element for pr in self.pairings]
+        xi = np.concatenate([pr.xi for pr in self.pairings])
+        ends = np.concatenate([se[e] for se, e in zip(self._slot_e, el, strict=True)])
+        a, b = x[ends[:, 0], :3], x[ends[:, 1], :3]
+        d = b - a
+        foot = a + xi[:, None] * d
+        return _dot(x[self._all_points, :3] - foot, d) / _dot(d, d)
 
     def _values(self, pairings: list[LinePairing], x: FloatArray) -> FloatArray:
         """Every row's gap for the ``pairings`` at the positions and rotations ``x`` (ids,
@@ -446,6 +463,12 @@ class LineContacts:
             SlidingError: a point left its line (on every rank: the data are global).
         """
         x = self._current(zone.u)
+        along = self._along(x)
+        if np.all(np.abs(along - self._along_ref) <= SLIDE_FRACTION):
+            # No point moved along its line since the rows and gaps were set: they hold
+            # (the normal motion is in the rows; a drift this small moves a gap by the
+            # line's slope times it).
+            return False
         fresh = [self._project(j, x, t) for j in range(len(self.families))]
         repair = any(
             bool(np.any((old.element != new.element) | (np.abs(new.xi - old.xi) > REPAIR_FRACTION)))
@@ -458,6 +481,7 @@ class LineContacts:
         # g0 + L u = the current distances, L the active rows (linear in the positions).
         lu = self._values(self.pairings, x) - self._values(self.pairings, self._reference())
         self.g0 = exact - lu
+        self._along_ref = self._along(x)
         if repair:
             zone.set_contacts(self.rows())
         else:
@@ -501,7 +525,11 @@ class LineContacts:
         return {"repairings": self.repairs, "repair_fraction": REPAIR_FRACTION}
 
     def state_dict(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"repairs": self.repairs, "g0": self.g0.copy()}
+        out: dict[str, Any] = {
+            "repairs": self.repairs,
+            "g0": self.g0.copy(),
+            "along": self._along_ref.copy(),
+        }
 
         for j, pairing in enumerate(self.pairings):
             out[f"element_{j}"] = pairing.element.copy()
@@ -519,4 +547,5 @@ class LineContacts:
             for j in range(len(self.families))
         ]
         self.g0 = np.asarray(state["g0"], dtype=np.float64)
+        self._along_ref = np.asarray(state["along"], dtype=np.float64)
         zone.set_contacts(self.rows())

@@ -296,7 +296,7 @@ class _Halo:
 
 def _local_block_csr(
     model: StructuralModel,
-) -> tuple[IntArray, IntArray, FloatArray, _Halo]:
+) -> tuple[IntArray, IntArray, FloatArray, _Halo, scipy.sparse.csr_matrix]:
     """K on the owned block rows in block CSR with local columns: the owned blocks, then the
     off-process blocks the rows reference, sorted by global index (PETSc's order for its
     off-diagonal part), and the halo that brings their values (collective, setup only).
@@ -344,11 +344,16 @@ def _local_block_csr(
     sp, si = pack([dofs(send_blocks[r]) for r in nbrs])
     rp, ri = pack([dofs(recv_blocks[r]) for r in nbrs])
     halo = _Halo(np.asarray(nbrs, dtype=np.int32), sp, si, rp, ri)
+    # A beam's blocks are three quarters zeros (its local axes along the global ones): its
+    # product runs over the scalar rows' nonzeros instead.
+    scalar = csr.copy()
+    scalar.eliminate_zeros()
     return (
         np.asarray(bsr.indptr, dtype=np.int64),
         np.asarray(bsr.indices, dtype=np.int64),
         np.ascontiguousarray(bsr.data, dtype=np.float64),
         halo,
+        scalar,
     )
 
 
@@ -382,7 +387,8 @@ class ExplicitZone:
         n_g = self.n_gamma
         n_own = model.n_owned
         bs = int(model.V.dofmap.index_map_bs)
-        indptr, indices, data, halo = _local_block_csr(model)
+        indptr, indices, data, halo, scalar = _local_block_csr(model)
+        beam = bs == 6
         n_loc_b = n_own // bs + halo.recv_idx.size // bs
         has_ghost = np.zeros(indptr.size - 1, dtype=bool)
         if indices.size:
@@ -412,6 +418,9 @@ class ExplicitZone:
             send_idx=si,
             recv_ptr=halo.recv_ptr,
             recv_idx=ri,
+            s_indptr=np.asarray(scalar.indptr if beam else np.zeros(0), dtype=np.int64),
+            s_indices=np.asarray(scalar.indices if beam else np.zeros(0), dtype=np.int64),
+            s_data=np.asarray(scalar.data if beam else np.zeros(0), dtype=np.float64),
             **relation,
         )
         n_loc = n_loc_b * bs

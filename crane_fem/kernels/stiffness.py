@@ -144,7 +144,7 @@ def _rows1(
     return ext, damp
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, fastmath={"reassoc", "contract"})
 def _rows6(
     indptr: IntArray,
     indices: IntArray,
@@ -161,36 +161,27 @@ def _rows6(
     h: float,
     rows: IntArray,
 ) -> tuple[float, float]:
-    """:func:`_rows3` for bs = 6 (beams: three translations, three rotations)."""
+    """:func:`_rows3` for beams (bs = 6: three translations, three rotations), over the
+    scalar rows' nonzeros (``indptr``, ``indices``, ``data``: scalar CSR) of the block
+    ``rows``."""
     ext = 0.0
     damp = 0.0
     n_shape = coef.size
-    s = np.empty(6)
-    x = np.empty(6)
     for rr in range(rows.size):
         r = rows[rr]
         for a in range(6):
-            s[a] = 0.0
-        for jj in range(indptr[r], indptr[r + 1]):
-            c = 6 * indices[jj]
-            for b in range(6):
-                x[b] = u[c + b]
-            for a in range(6):
-                s[a] += (
-                    (data[jj, a, 0] * x[0] + data[jj, a, 1] * x[1])
-                    + (data[jj, a, 2] * x[2] + data[jj, a, 3] * x[3])
-                    + (data[jj, a, 4] * x[4] + data[jj, a, 5] * x[5])
-                )
-        for a in range(6):
             i = 6 * r + a
+            s = 0.0
+            for jj in range(indptr[i], indptr[i + 1]):
+                s += data[jj] * u[indices[jj]]
             f = base[i]
             for k in range(n_shape):
                 f = f + coef[k] * shapes[k, i]
             v = vh[i]
             cv = alpha * mass[i] * v
-            w = v + h * minv[i] * (f - s[a] - cv)
+            w = v + h * minv[i] * (f - s - cv)
             vh[i] = w
-            ku_out[i] = s[a]
+            ku_out[i] = s
             ext += (v + w) * f
             damp += (v + w) * cv
     return ext, damp
@@ -238,11 +229,11 @@ def free_rows(
             h,
             rows,
         )
-    if z.bs == 6 and z.beta == 0.0:
+    if z.bs == 6 and z.beta == 0.0 and z.s_indptr.size > 0:
         return _rows6(
-            z.indptr,
-            z.indices,
-            z.data,
+            z.s_indptr,
+            z.s_indices,
+            z.s_data,
             st.u,
             st.vh,
             st.ku,

@@ -135,6 +135,11 @@ class Zone(NamedTuple):
     rope_row: BoolArray = np.zeros(0, dtype=np.bool_)
     n_spring: int = 0
     spring_dof: BoolArray = np.zeros(0, dtype=np.bool_)
+    #: K over the owned DOF rows as scalar CSR without its zeros (local columns as
+    #: ``indices``'), for beams (bs = 6); empty otherwise.
+    s_indptr: IntArray = np.zeros(0, dtype=np.int64)
+    s_indices: IntArray = np.zeros(0, dtype=np.int64)
+    s_data: FloatArray = np.zeros(0)
 
 
 class ZoneState(NamedTuple):
