@@ -194,10 +194,28 @@ def _slip_angles(W: FloatArray, q: FloatArray, mu: float) -> FloatArray:
 
 
 @numba.njit(cache=True)
-def solve_point(W: FloatArray, q: FloatArray, mu: float, r: FloatArray) -> bool:
+def _cramer3(W: FloatArray, q: FloatArray) -> FloatArray:
+    """−W⁻¹ q of a 3 × 3 block by Cramer's rule."""
+    a, b, c = W[0, 0], W[0, 1], W[0, 2]
+    d, e, f = W[1, 0], W[1, 1], W[1, 2]
+    g, h, i = W[2, 0], W[2, 1], W[2, 2]
+    A, B, C = e * i - f * h, f * g - d * i, d * h - e * g
+    det = a * A + b * B + c * C
+    out = np.empty(3)
+    out[0] = -(A * q[0] + (c * h - b * i) * q[1] + (b * f - c * e) * q[2]) / det
+    out[1] = -(B * q[0] + (a * i - c * g) * q[1] + (c * d - a * f) * q[2]) / det
+    out[2] = -(C * q[0] + (b * g - a * h) * q[1] + (a * e - b * d) * q[2]) / det
+    return out
+
+
+@numba.njit(cache=True)
+def solve_point(
+    W: FloatArray, q: FloatArray, mu: float, r: FloatArray, small: bool = False
+) -> bool:
     """(crane_fem.contact.friction.solve_point) the exact impulse r of one point with any
     Delassus block W: separation, stick, or the slip candidate of smallest residual.
-    Returns whether it solves the problem to round-off."""
+    Returns whether it solves the problem to round-off. ``small``: the stick impulse of a
+    3 × 3 block by Cramer's rule (a beam's wheel: LAPACK's call costs more than the solve)."""
     m = q.size
     for i in range(m):
         r[i] = 0.0
@@ -206,7 +224,7 @@ def solve_point(W: FloatArray, q: FloatArray, mu: float, r: FloatArray) -> bool:
     if m == 1 or mu == 0.0:
         r[0] = -q[0] / W[0, 0]
         return True
-    stick = -np.linalg.solve(W, q)
+    stick = _cramer3(W, q) if small and m == 3 else -np.linalg.solve(W, q)
     st2 = 0.0
     for i in range(1, m):
         st2 += stick[i] * stick[i]
@@ -346,50 +364,15 @@ def contacts_friction(
     (zero on open points) from the frictional contact problem; the free velocities are
     ``st.qc`` (normal rows) and ``st.qt`` (tangential rows). Not collective."""
     pc = closed.size
-    lam_t, qc, qt = st.lam_t, st.qc, st.qt
+    lam_t = st.lam_t
     for c in range(pc):
         lam_c[c] = 0.0
     for k in range(lam_t.size):
         lam_t[k] = 0.0
     if z.fric_local:
         for c in range(pc):
-            if not closed[c]:
-                continue
-            nk = z.t_count[c]
-            if nk == 0:  # frictionless: the normal law's closed form
-                lam_c[c] = max(0.0, -qc[c] / z.W_cc[c, c])
-                continue
-            k0 = z.t_first[c]
-            w = z.W_cc[c, c]
-            if z.iso[c]:
-                rn = max(0.0, -qc[c] / w)
-                lam_c[c] = rn
-                if rn > 0.0:
-                    s2 = 0.0
-                    for k in range(nk):
-                        s2 += (-qt[k0 + k] / w) * (-qt[k0 + k] / w)
-                    s = np.sqrt(s2)
-                    lim = z.mu[c] * rn
-                    f = 1.0 if s <= lim else lim / s
-                    for k in range(nk):
-                        lam_t[k0 + k] = (-qt[k0 + k] / w) * f
-                continue
-            Wl = np.empty((nk + 1, nk + 1))
-            ql = np.empty(nk + 1)
-            Wl[0, 0] = w
-            ql[0] = qc[c]
-            for a in range(nk):
-                ql[1 + a] = qt[k0 + a]
-                Wl[0, 1 + a] = z.W_nt[c, k0 + a]
-                Wl[1 + a, 0] = z.W_nt[c, k0 + a]
-                for b in range(nk):
-                    Wl[1 + a, 1 + b] = z.W_tt[k0 + a, k0 + b]
-            rl = np.empty(nk + 1)
-            if not solve_point(Wl, ql, z.mu[c], rl):
-                _fail(st, flags, c, _residual_point(Wl, ql, z.mu[c], rl))
-            lam_c[c] = rl[0]
-            for a in range(nk):
-                lam_t[k0 + a] = rl[1 + a]
+            if closed[c]:
+                _single(z, st, c, lam_c, flags)
         return
     # Points coupled through shared DOFs: one problem over the closed points of each
     # component of the coupling (the problems of two components are independent).
@@ -401,6 +384,13 @@ def contacts_friction(
                 n_closed += 1
         if n_closed == 0:
             continue
+        if n_closed == 1 and z.bs == 6:
+            # A beam's wheel with its flanges open: its own problem (the solid scenes keep
+            # the coupled solver: their stored histories were made with it).
+            for c in comp:
+                if closed[c]:
+                    _single(z, st, c, lam_c, flags)
+            continue
         idx = np.empty(n_closed, dtype=np.int64)
         n_closed = 0
         for c in comp:
@@ -408,6 +398,48 @@ def contacts_friction(
                 idx[n_closed] = c
                 n_closed += 1
         _coupled(z, st, idx, lam_c, flags)
+
+
+@numba.njit(cache=True)
+def _single(z: Zone, st: ZoneState, c: int, lam_c: FloatArray, flags: IntArray) -> None:
+    """The frictional problem of the one closed point ``c`` (its own rows only): the closed
+    form where its block is isotropic, else :func:`solve_point`. Not collective."""
+    lam_t, qc, qt = st.lam_t, st.qc, st.qt
+    nk = z.t_count[c]
+    if nk == 0:  # frictionless: the normal law's closed form
+        lam_c[c] = max(0.0, -qc[c] / z.W_cc[c, c])
+        return
+    k0 = z.t_first[c]
+    w = z.W_cc[c, c]
+    if z.iso[c]:
+        rn = max(0.0, -qc[c] / w)
+        lam_c[c] = rn
+        if rn > 0.0:
+            s2 = 0.0
+            for k in range(nk):
+                s2 += (-qt[k0 + k] / w) * (-qt[k0 + k] / w)
+            s = np.sqrt(s2)
+            lim = z.mu[c] * rn
+            f = 1.0 if s <= lim else lim / s
+            for k in range(nk):
+                lam_t[k0 + k] = (-qt[k0 + k] / w) * f
+        return
+    Wl = np.empty((nk + 1, nk + 1))
+    ql = np.empty(nk + 1)
+    Wl[0, 0] = w
+    ql[0] = qc[c]
+    for a in range(nk):
+        ql[1 + a] = qt[k0 + a]
+        Wl[0, 1 + a] = z.W_nt[c, k0 + a]
+        Wl[1 + a, 0] = z.W_nt[c, k0 + a]
+        for b in range(nk):
+            Wl[1 + a, 1 + b] = z.W_tt[k0 + a, k0 + b]
+    rl = np.empty(nk + 1)
+    if not solve_point(Wl, ql, z.mu[c], rl, z.bs == 6):
+        _fail(st, flags, c, _residual_point(Wl, ql, z.mu[c], rl))
+    lam_c[c] = rl[0]
+    for a in range(nk):
+        lam_t[k0 + a] = rl[1 + a]
 
 
 @numba.njit(cache=True)

@@ -110,8 +110,8 @@ def bonded_preload(
         point_masses: masses carried at vertices (their weight is part of the load).
         touching: a point whose gap at X is at most this (m) starts closed.
         ropes: a frame's ropes and their ends' coordinates (n, 2, 3): a rope taut at X
-            (within ``touching`` of its length) holds as the linear spring k d dᵀ between its
-            ends' translations while in tension (its force joins its group's).
+            (within ``touching`` of its length) holds as a linear spring k between its ends'
+            translations while in tension (its force along it joins its group's).
 
     Returns:
         The preload; ``pair_force`` per point and ``wheel_force`` per contact group (N,
@@ -307,12 +307,15 @@ class _RopeSprings:
         return out
 
     def add(self, K: PETSc.Mat, taut: npt.NDArray[np.bool_]) -> None:
-        """Add the taut ropes' springs (not collective: each by the rank owning its a)."""
+        """Add the taut ropes' springs (not collective: each by the rank owning its a), in
+        all three directions: a hanging load has no lateral stiffness of its own in the
+        linear statics (a pendulum's is its tension's), and under gravity the lateral ties
+        carry nothing (as a contact's tangential ties)."""
         for r in np.flatnonzero(taut):
             idx = self.dofs[r]
             if idx is None:
                 continue
-            D = np.outer(self.d[r], self.d[r])
+            D = np.eye(3)
             ke = self.k[r] * np.block([[D, -D], [-D, D]])
             K.setValues(idx, idx, ke.ravel().tolist(), addv=True)  # addv=True: ADD_VALUES
 

@@ -11,6 +11,7 @@ from pydantic import Field, field_validator, model_validator
 
 from crane_fem.scenario.base import NonNegativeFloat, PositiveFloat, PositiveInt, Section
 from crane_fem.scenario.frame import FrameModel
+from crane_fem.scenario.frame_crane import FrameCraneModel
 
 __all__ = [
     "MESH_KEYS",
@@ -19,6 +20,7 @@ __all__ = [
     "BlockModel",
     "BoxBeamModel",
     "CraneModel",
+    "FrameCraneModel",
     "FrameModel",
     "GmshModel",
     "SecondBar",
@@ -213,6 +215,7 @@ class GmshModel(Section):
 
 MODEL_KINDS = {
     "frame": FrameModel,
+    "frame_crane": FrameCraneModel,
     "bar": BarModel,
     "box_beam": BoxBeamModel,
     "crane": CraneModel,
