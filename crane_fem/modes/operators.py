@@ -196,6 +196,40 @@ def _add_bonded(K: PETSc.Mat, V: dolfinx.fem.FunctionSpace, mesh: MeshStage, k_p
     K.assemble()
 
 
+def _add_ropes(
+    K: PETSc.Mat, V: dolfinx.fem.FunctionSpace, mesh: MeshStage, gravity: FloatArray
+) -> None:
+    """A frame's ropes, taut under the load hanging on them: each the spring k d dᵀ along it
+    and its tension's geometric stiffness (T/ℓ)(I − d dᵀ) across it (a pendulum's), T the
+    weight of the point masses on its end that hangs (on no beam); each rank adds the
+    ropes whose first end's block it owns (collective: assembles)."""
+    fc = mesh.frame_contacts
+    assert fc is not None and fc.ropes is not None
+    spec = fc.ropes
+    d, length = fc.rope_chords()
+    ends = np.r_[spec.a, spec.b]
+    block_of = _global_blocks(V, ends)
+    lo, hi = V.dofmap.index_map.local_range
+    bs = V.dofmap.index_map_bs
+    g = float(np.linalg.norm(gravity))
+    pm = mesh.point_masses
+    K.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)  # type: ignore[arg-type]
+    for r in range(spec.n):
+        a, b = int(spec.a[r]), int(spec.b[r])
+        if not lo <= block_of[a] < hi:
+            continue
+        hanging = b if b in set(mesh.held_rotations.tolist()) else a
+        mass = 0.0
+        if pm is not None and hanging in set(pm.vertices.tolist()):
+            mass = float(pm.values[np.searchsorted(pm.vertices, hanging), 0])
+        D = np.outer(d[r], d[r])
+        k = spec.stiffness[r] * D + (mass * g / length[r]) * (np.eye(3) - D)
+        idx = [bs * block_of[v] + c for v in (a, b) for c in range(3)]
+        ke = np.block([[k, -k], [-k, k]])
+        K.setValues(idx, idx, ke.ravel().tolist(), addv=True)  # addv=True: ADD_VALUES
+    K.assemble()
+
+
 def assemble_closed_structure(
     mesh: MeshStage, E: float, nu: float, rho: float, gravity: FloatArray, degree: int = 1
 ) -> ClosedStructure:
@@ -269,6 +303,8 @@ def assemble_closed_structure(
         k_p = comm.allreduce(float(np.max(diag.array_r, initial=0.0)), op=MPI.MAX)
         diag.destroy()
         _add_bonded(K_all, V, mesh, k_p)
+    if fc is not None and fc.ropes is not None:
+        _add_ropes(K_all, V, mesh, np.asarray(gravity, dtype=np.float64))
 
     imap = V.dofmap.index_map
     n_own = imap.size_local
@@ -279,7 +315,12 @@ def assemble_closed_structure(
     pinned = _clamped_blocks(V, mesh.pinned_vertices)
     pinned = pinned[pinned < n_own]
     is_fixed[(bs * pinned[:, None] + np.arange(n_t)).ravel()] = True
-    free = np.flatnonzero(~is_fixed).astype(np.int64)
+    # A rope's hanging end has no rotation (held: neither free nor a support's).
+    held = _clamped_blocks(V, mesh.held_rotations)
+    held = held[held < n_own]
+    is_held = np.zeros(bs * n_own, dtype=bool)
+    is_held[(bs * held[:, None] + np.arange(n_t, bs)).ravel()] = True
+    free = np.flatnonzero(~is_fixed & ~is_held).astype(np.int64)
     clamped = np.flatnonzero(is_fixed).astype(np.int64)
     start = bs * imap.local_range[0]
     is_free = PETSc.IS().createGeneral((free + start).astype(np.int32), comm=comm)

@@ -7,6 +7,7 @@ import math
 from typing import Any
 
 import numpy as np
+from mpi4py import MPI
 
 from crane_fem.coupling import MacroRecord
 from crane_fem.pipeline import Simulation
@@ -49,6 +50,9 @@ class GroupStress:
         self.t_peak = np.zeros(n_g)
         self.location = np.zeros((n_g, 3))
         self.last = np.full(n_g, math.nan)
+        #: A frame's per group largest |N|, |V1|, |V2|, |T|, |M1|, |M2| (none for solids).
+        beams = any(hasattr(vm, "last_forces") for _, vm, _, _ in self.sides)
+        self.forces = np.zeros((n_g, 6 if beams else 0))
 
     @property
     def columns(self) -> list[str]:
@@ -69,21 +73,31 @@ class GroupStress:
             values, at = vm.peaks_by(u, cells, labels, len(self.groups), self.comm)
             better = values > now
             now[better], where[better] = values[better], at[better]
+            forces = getattr(vm, "last_forces", None)
+            if forces is not None:  # a beam's section forces, of the same evaluation
+                local = np.zeros((len(self.groups), forces.shape[1]))
+                np.maximum.at(local, labels, np.abs(forces[cells]))
+                self.forces = np.maximum(self.forces, self.comm.allreduce(local, op=MPI.MAX))
         self.last = now
         up = now > self.peak
         self.peak[up], self.t_peak[up], self.location[up] = now[up], rec.t, where[up]
 
     def summarize(self, summary: dict[str, Any]) -> None:
-        """``peak_von_mises_by_group``: per volume group its peak (Pa), when (s) and where
-        (m)."""
-        summary["peak_von_mises_by_group"] = {
-            g: {
+        """``peak_von_mises_by_group``: per group its peak (Pa), when (s) and where (m); for
+        a frame's member group also the largest magnitude of each section force over the run
+        (``peak_section_forces``: N, V1, V2 in N, T, M1, M2 in N·m)."""
+        table: dict[str, Any] = {}
+        for k, g in enumerate(self.groups):
+            row: dict[str, Any] = {
                 "peak_Pa": float(self.peak[k]),
                 "time_s": float(self.t_peak[k]),
                 "location_m": self.location[k].tolist(),
             }
-            for k, g in enumerate(self.groups)
-        }
+            if self.forces.shape[1]:
+                names = ("N", "V1", "V2", "T", "M1", "M2")
+                row["peak_section_forces"] = dict(zip(names, self.forces[k].tolist(), strict=True))
+            table[g] = row
+        summary["peak_von_mises_by_group"] = table
 
     def state_dict(self) -> dict[str, Any]:
         return {
@@ -91,6 +105,7 @@ class GroupStress:
             "t_peak": self.t_peak.copy(),
             "location": self.location.copy(),
             "last": self.last.copy(),
+            "forces": self.forces.copy(),
         }
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
@@ -98,6 +113,7 @@ class GroupStress:
         self.t_peak = np.asarray(state["t_peak"], dtype=np.float64)
         self.location = np.asarray(state["location"], dtype=np.float64).reshape(-1, 3)
         self.last = np.asarray(state["last"], dtype=np.float64)
+        self.forces = np.asarray(state["forces"], dtype=np.float64).reshape(self.forces.shape)
 
     def destroy(self) -> None:
         pass
