@@ -77,7 +77,9 @@ class GroupStress:
             if forces is not None:  # a beam's section forces, of the same evaluation
                 local = np.zeros((len(self.groups), forces.shape[1]))
                 np.maximum.at(local, labels, np.abs(forces[cells]))
-                self.forces = np.maximum(self.forces, self.comm.allreduce(local, op=MPI.MAX))
+                # A buffer reduction: a pickled one applies MAX to whole arrays and fails.
+                self.comm.Allreduce(MPI.IN_PLACE, local, op=MPI.MAX)
+                self.forces = np.maximum(self.forces, local)
         self.last = now
         up = now > self.peak
         self.peak[up], self.t_peak[up], self.location[up] = now[up], rec.t, where[up]
