@@ -80,9 +80,14 @@ def run_serial_and_two_ranks(args: list[str], tmp: Path) -> tuple[Path, Path]:
     base = [str(bindir / "crane-fem"), "run", *args]
     serial, par = tmp / "serial", tmp / "mpi"
     env = mpiexec_env()
-    subprocess.run([*base, "-o", str(serial)], check=True, capture_output=True, env=env)
+    # A hang (a collective one rank left) fails the test instead of stalling the suite: the
+    # scenes these tests run take seconds, 10 min is far beyond any of them.
+    limit = 600
+    subprocess.run(
+        [*base, "-o", str(serial)], check=True, capture_output=True, env=env, timeout=limit
+    )
     cmd = [str(bindir / "mpiexec"), "-n", "2", *base, "-o", str(par)]
-    subprocess.run(cmd, check=True, capture_output=True, env=env)
+    subprocess.run(cmd, check=True, capture_output=True, env=env, timeout=limit)
     return serial, par
 
 
