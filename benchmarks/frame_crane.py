@@ -39,7 +39,7 @@ def _scales(scene: Path, factor: float) -> list[str]:
     gm = data.get("loading", {}).get("ground_motion")
     if isinstance(gm, list):
         return [
-            f"loading.ground_motion[{i}].scale={g.get('scale', 1.0) * factor!r}"
+            f"loading.ground_motion.{i}.scale={g.get('scale', 1.0) * factor!r}"
             for i, g in enumerate(gm)
         ]
     return [f"loading.ground_motion.scale={gm.get('scale', 1.0) * factor!r}"]

@@ -102,19 +102,23 @@ def test_exact_solvers_on_coupled_and_anisotropic_problems() -> None:
     satisfies Coulomb's law in De Saxcé's natural-map form (an independent check of the
     Alart–Curnier residual the solvers stop on) to 1e-12 of the impulse scale, and equals
     the NumPy solver's to 1e-10 (measured: 2e-13 and 1e-14; the slip angles are roots of a
-    quartic polished by the two in other orders). Uncoupled isotropic points: the closed form."""
+    quartic polished by the two in other orders). The beams' path (``small``: Cramer's stick,
+    the slip angle first sought from the stick impulse's direction) on the same problems, to
+    the same bounds. Uncoupled isotropic points: the closed form."""
     rng = np.random.default_rng(7)
     for _ in range(500):
         m = int(rng.choice([2, 3]))
         B = rng.standard_normal((m, m))
         W = B @ B.T + 0.05 * np.eye(m)
         q, mu = rng.standard_normal(m), float(rng.uniform(0.0, 5.0))
-        r = np.zeros(m)
-        assert kf.solve_point(W, q, mu, r)
         ptr = np.array([0, m], dtype=np.int64)
-        assert nf.coulomb_residual(W, q, ptr, np.array([mu]), r) <= 1e-12
         ref, found = nf.solve_point(W, q, mu)
-        assert found and np.max(np.abs(r - ref)) <= 1e-10 * max(np.max(np.abs(ref)), 1e-300)
+        assert found
+        for small in (False, True):
+            r = np.zeros(m)
+            assert kf.solve_point(W, q, mu, r, small)
+            assert nf.coulomb_residual(W, q, ptr, np.array([mu]), r) <= 1e-12
+            assert np.max(np.abs(r - ref)) <= 1e-10 * max(np.max(np.abs(ref)), 1e-300)
     for _ in range(100):
         na = int(rng.integers(2, 8))
         ks = rng.choice([0, 1, 2, 2], na)

@@ -159,18 +159,43 @@ def _residual_point(W: FloatArray, q: FloatArray, mu: float, r: FloatArray) -> f
 
 
 @numba.njit(cache=True)
-def _slip_angles(W: FloatArray, q: FloatArray, mu: float) -> FloatArray:
-    """(crane_fem.contact.friction._slip_angles) the slip angles φ of a point with two
-    tangential rows: roots of a quartic in tan φ/2, and π, polished by Newton on f(φ)."""
+def _slip_coefficients(W: FloatArray, q: FloatArray, mu: float) -> FloatArray:
+    """The coefficients (a1, a2, b11, b12, b22) of the slip angle's equation
+    f(φ) = a1 c + a2 s + b11 c² + b12 c s + b22 s² = 0 (c = cos φ, s = sin φ) of a point
+    with two tangential rows."""
     Wnn = W[0, 0]
     w0, w1 = W[1, 0], W[2, 0]
     A00, A01, A11 = W[1, 1], W[1, 2], W[2, 2]
     qn, qt0, qt1 = q[0], q[1], q[2]
-    a1 = qn * w1 - Wnn * qt1
-    a2 = -qn * w0 + Wnn * qt0
-    b11 = -qn * mu * A01 + mu * w0 * qt1
-    b22 = qn * mu * A01 - mu * w1 * qt0
-    b12 = qn * mu * (A00 - A11) - mu * w0 * qt0 + mu * w1 * qt1
+    out = np.empty(5)
+    out[0] = qn * w1 - Wnn * qt1
+    out[1] = -qn * w0 + Wnn * qt0
+    out[2] = -qn * mu * A01 + mu * w0 * qt1
+    out[3] = qn * mu * (A00 - A11) - mu * w0 * qt0 + mu * w1 * qt1
+    out[4] = qn * mu * A01 - mu * w1 * qt0
+    return out
+
+
+@numba.njit(cache=True)
+def _polish(f: FloatArray, ph: float) -> float:
+    """A slip angle polished by 8 Newton steps on f(φ) (:func:`_slip_coefficients`)."""
+    a1, a2, b11, b12, b22 = f[0], f[1], f[2], f[3], f[4]
+    for _ in range(8):
+        c, s = np.cos(ph), np.sin(ph)
+        val = a1 * c + a2 * s + b11 * c * c + b12 * c * s + b22 * s * s
+        der = -a1 * s + a2 * c - 2 * b11 * c * s + b12 * (c * c - s * s) + 2 * b22 * s * c
+        if der == 0.0:
+            break
+        ph -= val / der
+    return ph
+
+
+@numba.njit(cache=True)
+def _slip_angles(W: FloatArray, q: FloatArray, mu: float) -> FloatArray:
+    """(crane_fem.contact.friction._slip_angles) the slip angles φ of a point with two
+    tangential rows: roots of a quartic in tan φ/2, and π, polished by Newton on f(φ)."""
+    f = _slip_coefficients(W, q, mu)
+    a1, a2, b11, b12, b22 = f[0], f[1], f[2], f[3], f[4]
     poly = np.array([b11 - a1, 2 * (a2 - b12), 4 * b22 - 2 * b11, 2 * (a2 + b12), a1 + b11])
     phis = np.empty(5)
     n = 1
@@ -181,15 +206,7 @@ def _slip_angles(W: FloatArray, q: FloatArray, mu: float) -> FloatArray:
                 phis[n] = 2.0 * np.arctan(t.real)
                 n += 1
     for k in range(n):
-        ph = phis[k]
-        for _ in range(8):
-            c, s = np.cos(ph), np.sin(ph)
-            val = a1 * c + a2 * s + b11 * c * c + b12 * c * s + b22 * s * s
-            der = -a1 * s + a2 * c - 2 * b11 * c * s + b12 * (c * c - s * s) + 2 * b22 * s * c
-            if der == 0.0:
-                break
-            ph -= val / der
-        phis[k] = ph
+        phis[k] = _polish(f, phis[k])
     return phis[:n]
 
 
@@ -231,6 +248,21 @@ def solve_point(
     if stick[0] > 0.0 and np.sqrt(st2) <= mu * stick[0]:
         r[:] = stick
         return True
+    if small and m == 3 and st2 > 0.0:
+        # Sliding: first the slip angle nearest the stick impulse's direction (the quartic's
+        # roots cost a complex eigenvalue problem, ten times the rest of the step), taken
+        # when it solves the point to round-off.
+        f = _slip_coefficients(W, q, mu)
+        ph = _polish(f, np.arctan2(-stick[2], -stick[1]))
+        c, s = np.cos(ph), np.sin(ph)
+        a = W[0, 0] - mu * (W[0, 1] * c + W[0, 2] * s)
+        if a != 0.0 and -q[0] / a > 0.0:
+            rn = -q[0] / a
+            cand = np.empty(3)
+            cand[0], cand[1], cand[2] = rn, -mu * rn * c, -mu * rn * s
+            if _residual_point(W, q, mu, cand) <= 10 * TOL:
+                r[:] = cand
+                return True
     if m == 2:
         dirs = np.array([[1.0, 0.0], [-1.0, 0.0]])
     else:

@@ -415,13 +415,15 @@ def _check_over_line(
 
 def frame_bonded_points(contacts: FrameContacts) -> BondedPoints:
     """Every frame contact point tied to what it touches at t = 0 by its three rows (the
-    normal, across, along), for the preload and the modes (the groups: the normal rows')."""
-    ids, rows, normal, gap, group = [], [], [], [], []
+    normal, across, along), for the preload and the modes (the groups: the normal rows'); the
+    points on lines loose (``BondedPoints.loose``: no tangential force at rest)."""
+    ids, rows, normal, gap, group, loose = [], [], [], [], [], []
     width = 3
     for c in contacts.lines:
         r = c.rows_at(("normal", "across", "along"))
         ids.append(c.ids)
         rows.append(r)
+        loose.append(np.ones(c.points.size, dtype=bool))  # set down on its line
         _, n, _ = element_axes(c.Xe[:, 0], c.Xe[:, 1], c.normal)
         normal.append(n[c.element])
         gap.append(c.gaps())
@@ -438,6 +440,7 @@ def frame_bonded_points(contacts: FrameContacts) -> BondedPoints:
         normal.append(np.tile(pl.normal, (p, 1)))
         gap.append(pl.gaps())
         group.append(np.full(p, pl.group, dtype=np.int64))
+        loose.append(np.zeros(p, dtype=bool))
     if not ids:
         z = np.zeros((0, width))
         return BondedPoints(
@@ -456,6 +459,7 @@ def frame_bonded_points(contacts: FrameContacts) -> BondedPoints:
         np.concatenate(gap),
         np.concatenate(group),
         np.concatenate(rows),
+        np.concatenate(loose),
     )
 
 

@@ -14,7 +14,10 @@ The residual interpenetration F/k_p is removed from the gaps of the dynamic run.
 A frame's points (on a beam's line, on a plane) are tied the same way by their own three
 rows (the normal, the two tangents), each a combination of the 6 DOFs of the point and of
 the element's ends (the rail top's offset makes the tangential rows turn with the beam):
-``BondedPoints.rows``; the spring is then k_p Σ_d r_d r_dᵀ.
+``BondedPoints.rows``; the spring is then k_p Σ_d r_d r_dᵀ. A point on a line (a wheel set
+down on its rail) carries no tangential force at rest: its tangential rows are tied at
+:data:`LOOSE_TIE` k_p only, enough to hold the trolley's rigid sliding (``BondedPoints.loose``;
+``crane-fem modes`` keeps them tied as firmly as the normal).
 """
 
 from __future__ import annotations
@@ -37,10 +40,17 @@ from crane_fem.model import assemble_operators
 from crane_fem.preload.crane import Preload, vertex_blocks
 from crane_fem.subdomains import PointMasses
 
-__all__ = ["BondedPoints", "bonded_preload"]
+__all__ = ["LOOSE_TIE", "BondedPoints", "bonded_preload"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
+
+#: A loose point's tangential tie in the static preload, relative to k_p. Tied as firmly as
+#: its normal, a trolley's four wheels resist the rail tops' shortening as the girders sag
+#: (2.3 kN along each wheel of demos/frame_crane.toml, above its 1.4 kN weight) and the run
+#: releases that force at t = 0: the wheels lift. At 1e-9 k_p the tie only removes the
+#: trolley's rigid sliding (a 0.3 Hz spring for it) and holds 1e-9 of that force.
+LOOSE_TIE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -56,6 +66,9 @@ class BondedPoints:
         rows: None (the relative displacement u_p − Σ ξ_i u_i, the weights times I₃), or
             (p, 3, k, bs) the coefficients of each point's three rows on the DOFs of its
             vertices, the normal row first.
+        loose: per point, whether it carries no tangential force at rest (a frame's point on
+            a line: a wheel set down on its rail), so that the static preload ties its
+            tangential rows only weakly (:data:`LOOSE_TIE`); None: none.
     """
 
     ids: IntArray
@@ -64,14 +77,18 @@ class BondedPoints:
     gap: FloatArray
     group: IntArray
     rows: FloatArray | None = None
+    loose: npt.NDArray[np.bool_] | None = None
 
-    def spring(self, i: int, k_p: float, bs: int) -> FloatArray:
-        """k_p times the sum of point ``i``'s rows' outer products (k bs × k bs)."""
+    def spring(self, i: int, k_p: float, bs: int, static: bool = False) -> FloatArray:
+        """k_p times the sum of point ``i``'s rows' outer products (k bs × k bs); in the
+        static preload (``static``), a loose point's tangential rows at :data:`LOOSE_TIE` k_p."""
         if self.rows is None:
             w = self.weights[i]
             ke = np.asarray(k_p * np.kron(np.outer(w, w), np.eye(bs)), dtype=np.float64)
             return ke
         r = self.rows[i].reshape(3, -1)
+        if static and self.loose is not None and self.loose[i]:
+            r = r * np.sqrt([1.0, LOOSE_TIE, LOOSE_TIE])[:, None]
         out: FloatArray = k_p * (r.T @ r)
         return out
 
@@ -185,7 +202,7 @@ def bonded_preload(
         for i in np.flatnonzero(active):
             idx = dofs[i]
             if idx is not None:
-                ke = points.spring(int(i), k_p, bs)
+                ke = points.spring(int(i), k_p, bs, static=True)
                 Ka.setValues(idx, idx, ke.ravel().tolist(), addv=True)
         rope.add(Ka, taut)
         Ka.assemble()
