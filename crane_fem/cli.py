@@ -255,7 +255,7 @@ def _run(sc: Scenario, args: argparse.Namespace, comm: Any) -> int:
     """Prepare the output directory, run, and say where the outputs are (collective)."""
     from crane_fem.driver import run_scenario
     from crane_fem.io import prepare_output_dir
-    from crane_fem.io.results import results_lines
+    from crane_fem.io.results import results_lines, run_line
 
     rank0 = comm.rank == 0
     restart = args.restart
@@ -271,26 +271,7 @@ def _run(sc: Scenario, args: argparse.Namespace, comm: Any) -> int:
         result = run_scenario(sc, outdir, comm, progress=args.progress, restart=restart)
     s = result.summary
     if rank0:
-        ad = s.get("adaptive")
-        if ad:  # the macro step refined at impacts: how many of each
-            steps = (
-                f"{s['steps_done']} macro steps ({ad['coarse_steps']} of ΔT = {s['dT']:.4e} s, "
-                f"m = {ad['coarse_ratio']}; {ad['fine_steps']} of m = {ad['fine_ratio']} around "
-                f"impacts), {s['micro_steps_done']} micro steps of Δt = {s['dt']:.4e} s ("
-            )
-        elif s.get("ratio", 1) > 1:  # coupled: macro steps of m micro steps
-            steps = (
-                f"{s['steps']} macro steps of ΔT = {s['dT']:.4e} s (m = {s['ratio']}, "
-                f"{s['micro_steps']} micro steps of Δt = {s['dt']:.4e} s, "
-            )
-        else:
-            steps = f"{s.get('micro_steps', s['steps'])} steps of Δt = {s['dt']:.4e} s ("
-        print(
-            f"crane-fem: {sc.name}: {steps}critical {s['dt_critical']:.4e} s) in "
-            f"{s['wall_time_s']:.2f} s; "
-            f"energy balance error {s['energy_balance_error']:.2e}; "
-            f"{s['contact_intervals']} contact interval(s)"
-        )
+        print(f"crane-fem: {run_line(sc.name, s)}")
         for line in results_lines(s):
             print(f"crane-fem: {line}")
         xdmf = sorted(p.name for p in Path(outdir).glob("*.xdmf"))

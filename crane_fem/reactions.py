@@ -128,6 +128,7 @@ class SupportReactions:
         self.peak_vertical = np.zeros(self.n_faces)
         self.t_vertical = np.zeros(self.n_faces)
         self.initial: FloatArray | None = None
+        self.static: FloatArray | None = None
         self._v_prev: FloatArray | None = None
         self._t_prev = 0.0
 
@@ -140,12 +141,18 @@ class SupportReactions:
         """The force of each face on the structure at time ``t`` (n_faces, bs), N, for the
         owned fields ``u``, ``v`` and the ground acceleration vector ``ground`` (collective).
         Successive calls give the mean acceleration between them."""
-        bs = self.bs
         if self._v_prev is None or t <= self._t_prev:
             a = np.zeros_like(v)
         else:
             a = (v - self._v_prev) / (t - self._t_prev)
         self._v_prev, self._t_prev = v.copy(), t
+        return self._residual(u, v, a, ground)
+
+    def _residual(
+        self, u: FloatArray, v: FloatArray, a: FloatArray, ground: FloatArray
+    ) -> FloatArray:
+        """R = K_f u + C_f v + M_f (a + ι a_g − g) summed per face (n_faces, bs) (collective)."""
+        bs = self.bs
         body = np.zeros((v.size // bs, bs))
         n_t = self.translations
         body[:, :n_t] = np.asarray(ground, dtype=np.float64)[:n_t] - self.gravity
@@ -161,7 +168,10 @@ class SupportReactions:
         (n_faces, bs), N (collective)."""
         f = self.forces(t, u, v, ground)
         if self.initial is None:
+            # The first forces without the ground's acceleration on the clamped nodes' mass
+            # (M_f ι a_g): in a run from its preload, the reaction to the self-weight alone.
             self.initial = f
+            self.static = self._residual(u, v, np.zeros_like(v), np.zeros(3))
         n_t = self.translations
         norm = np.linalg.norm(f[:, :n_t], axis=1)
         better = norm > self.peak
@@ -178,6 +188,8 @@ class SupportReactions:
         out["t_prev"] = self._t_prev
         if self.initial is not None:
             out["initial"] = self.initial.copy()
+        if self.static is not None:
+            out["static"] = self.static.copy()
         if self._v_prev is not None:
             out["v_prev"] = self._v_prev.copy()
         return out
@@ -188,13 +200,17 @@ class SupportReactions:
         self._t_prev = float(state["t_prev"])
         init, v = state.get("initial"), state.get("v_prev")
         self.initial = None if init is None else np.array(init, dtype=np.float64)
+        static = state.get("static")
+        self.static = None if static is None else np.array(static, dtype=np.float64)
         self._v_prev = None if v is None else np.array(v, dtype=np.float64)
 
     def table(self) -> dict[str, dict[str, Any]]:
         """Per face (numbered from 1): its centre, the peak of the force's magnitude and of its
-        vertical component with their times, and the force at the first evaluation (N; a
-        beam's support also its moment, N·m)."""
+        vertical component with their times, the force at the first evaluation and its static
+        part (without the ground's acceleration on the clamped nodes' own mass) (N; a beam's
+        support also its moment, N·m)."""
         init = self.initial if self.initial is not None else np.zeros((self.n_faces, self.bs))
+        static = self.static if self.static is not None else init
         n_t = self.translations
         out: dict[str, dict[str, Any]] = {}
         for k in range(self.n_faces):
@@ -205,9 +221,11 @@ class SupportReactions:
                 "peak_vertical_N": float(self.peak_vertical[k]),
                 "peak_vertical_time_s": float(self.t_vertical[k]),
                 "initial_force_N": [float(x) for x in init[k, :n_t]],
+                "static_force_N": [float(x) for x in static[k, :n_t]],
             }
             if self.bs > n_t:
                 row["initial_moment_Nm"] = [float(x) for x in init[k, n_t:]]
+                row["static_moment_Nm"] = [float(x) for x in static[k, n_t:]]
             out[str(k + 1)] = row
         return out
 

@@ -114,7 +114,9 @@ def test_negative_wheel_friction_is_refused() -> None:
 
 def test_wheel_section_belongs_to_a_crane() -> None:
     bar = Path(__file__).parent.parent / "demos" / "bar_impact.toml"
-    with pytest.raises(ScenarioError, match=r"wheel: applies to model.kind 'crane' only"):
+    with pytest.raises(
+        ScenarioError, match=r"wheel: applies to model.kind 'crane' and 'frame_crane' only"
+    ):
         load_scenario(bar, ["wheel.friction=0.3"])
 
 

@@ -11,7 +11,9 @@ its own: nothing is written).
 - every key of the schema (every section, every model kind's fields, nested tables) is named
   in docs/scenarios.md;
 - every ``summary.json`` key that crane_fem/coupled_run.py (and the summary's common tail,
-  crane_fem/run_record.py) writes is named in docs/user-guide.md.
+  crane_fem/run_record.py) writes is named in docs/user-guide.md;
+- the guide's sample run output is in the format ``run`` prints now, and a figure it quotes
+  (the cabinet demo's support reaction) is what the demo's mesh and scene give.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import typing
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from pydantic import BaseModel, ValidationError
 
@@ -343,3 +346,121 @@ def test_summary_keys_documented() -> None:
     guide = _read(GUIDE)
     missing = [f"{k} ({m})" for m, k in keys if f"`{k}`" not in guide]
     assert not missing, f"{GUIDE}: summary.json keys not documented: {', '.join(missing)}"
+
+
+# --- sample outputs and figures the guide quotes -----------------------------------------------
+
+#: The first line a refining coupled run prints (crane_fem.io.results.run_line).
+_REFINING_RUN = re.compile(
+    r"crane-fem: (\w+): (\d+) macro steps \((\d+) of ΔT = (\S+) s, m = (\d+); (\d+) of "
+    r"m = (\d+) around impacts\), (\d+) micro steps of Δt = (\S+) s \(critical (\S+) s\) in "
+    r"(\S+) s; energy balance error (\S+); (\d+) contact interval\(s\)"
+)
+
+
+def test_guide_sample_run_is_what_run_prints() -> None:
+    """§1's sample of `crane-fem run` (issue 32: it showed 77 macro steps of a fixed ratio
+    where the refining scene prints 473): its first line is the one
+    :func:`~crane_fem.io.results.run_line` prints for its own numbers, in the refining run's
+    format, and those numbers add up (coarse + fine macro steps; coarse × m + fine × m_fine
+    micro steps; ΔT = mΔt; the scene's ratios); its table has every header the end table of
+    a crane run with slip prints."""
+    from crane_fem.io.results import results_lines, run_line
+
+    command = "$ .venv/bin/crane-fem run demos/crane_quick.toml -o /tmp/gq --set time.end=0.01"
+    block = next(b for _, b in FENCE.findall(_read(GUIDE)) if command in b)
+    first = block.split(command)[1].strip().splitlines()[0]
+    m = _REFINING_RUN.fullmatch(first)
+    assert m, f"{GUIDE} §1: not the line a refining run prints now: {first!r}"
+    name, steps, coarse, dT, ratio, fine, fine_ratio, micro, dt, crit, wall, err, cont = m.groups()
+    summary = {
+        "steps_done": int(steps),
+        "micro_steps_done": int(micro),
+        "dT": float(dT),
+        "dt": float(dt),
+        "dt_critical": float(crit),
+        "wall_time_s": float(wall),
+        "energy_balance_error": float(err),
+        "contact_intervals": int(cont),
+        "adaptive": {
+            "coarse_steps": int(coarse),
+            "coarse_ratio": int(ratio),
+            "fine_steps": int(fine),
+            "fine_ratio": int(fine_ratio),
+        },
+    }
+    assert f"crane-fem: {run_line(name, summary)}" == first
+    assert int(coarse) + int(fine) == int(steps)
+    assert int(coarse) * int(ratio) + int(fine) * int(fine_ratio) == int(micro)
+    assert float(dT) == pytest.approx(int(ratio) * float(dt), rel=1e-4)
+    sc = load_scenario(ROOT / "demos" / "crane_quick.toml")
+    assert sc.coupling is not None
+    assert (sc.coupling.ratio, sc.coupling.fine_ratio) == (int(ratio), int(fine_ratio))
+    assert int(micro) * float(dt) == pytest.approx(0.01, abs=float(dT))
+    wheel = {
+        "peak_force_N": 1.0,
+        "peak_force_time_s": 0.0,
+        "max_uplift_m": 0.0,
+        "lift_offs": {"count": 0},
+        "max_slip_across_m": 0.0,
+        "max_slip_along_m": 0.0,
+        "slip_reach_m": 0.0,
+    }
+    headers = [ln for ln in results_lines({"wheels": {"1": wheel}}) if "(mm)" in ln]
+    assert len(headers) == 2
+    for header in headers:
+        assert f"crane-fem: {header}\n" in block, f"{GUIDE} §1: the table lacks {header!r}"
+
+
+def _group_volumes(mesh: Path) -> dict[str, float]:
+    """The volume of each named volume group of a .msh (m³), from its tetrahedra (gmsh, in
+    this process)."""
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    try:
+        gmsh.open(str(mesh))
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        where = np.empty(int(tags.max()) + 1, dtype=np.int64)
+        where[tags] = np.arange(tags.size)
+        xyz = xyz.reshape(-1, 3)
+        out = {}
+        for dim, tag in gmsh.model.getPhysicalGroups(3):
+            volume = 0.0
+            for entity in gmsh.model.getEntitiesForPhysicalGroup(dim, tag):
+                _, _, nodes = gmsh.model.mesh.getElements(3, entity)
+                x = xyz[where[np.asarray(nodes[0], dtype=np.int64).reshape(-1, 4)]]
+                volume += float(np.sum(np.abs(np.linalg.det(x[:, 1:] - x[:, :1]))) / 6.0)
+            out[gmsh.model.getPhysicalName(dim, tag)] = volume
+        return out
+    finally:
+        gmsh.finalize()
+
+
+def test_guide_cabinet_reaction_is_slab_plus_cabinet() -> None:
+    """§10's static support reaction of the cabinet demo (issue 32: it was called "its
+    weight", the cabinet's) is the weight of the slab and the cabinet with its carried mass,
+    from the mesh's group volumes and the scene's densities; the cabinet's share, which its
+    feet carry, is the smaller number the guide gives beside it."""
+    scene = ROOT / "demos" / "own_model" / "cabinet_on_slab.toml"
+    sc = load_scenario(scene)
+    volumes = _group_volumes(ROOT / "demos" / "own_model" / "cabinet_on_slab.msh")
+    g = -sc.loading.gravity[2]
+    carried = {m.group: m.mass for m in sc.mass}
+    weight = {
+        group: (mat.rho * volumes[group] + carried.get(group, 0.0)) * g
+        for groups, mat in sc.materials
+        for group in groups or []
+    }
+    text = " ".join(_read(GUIDE).split())
+    m = re.search(
+        r"a static support reaction of ([\d.]+) kN: the weight of the slab and of the "
+        r"cabinet with its (\d+) kg of equipment \(the cabinet's share, ([\d.]+) kN",
+        text,
+    )
+    assert m, f"{GUIDE} §10: the cabinet demo's support reaction is not described as expected"
+    total, equipment, share = float(m[1]), float(m[2]), float(m[3])
+    assert equipment == carried["cabinet"]
+    assert total == pytest.approx(sum(weight.values()) / 1e3, abs=0.005)
+    assert share == pytest.approx(weight["cabinet"] / 1e3, abs=0.005)

@@ -66,6 +66,24 @@ def test_csv_with_a_third_column_refused(tmp_path) -> None:
         read_csv(path)
 
 
+@pytest.mark.parametrize("sep", [";", "; ", "\t", " "])
+def test_csv_with_decimal_commas_refused_with_a_hint(tmp_path, sep) -> None:
+    """A record exported with decimal commas (``0,01;0,25``: a spreadsheet in a locale that
+    writes them) splits into four columns; the error says why and what to write instead. Four
+    columns without decimal commas get no such hint."""
+    path = tmp_path / "comma.csv"
+    path.write_text(f"t{sep}a\n0{sep}0\n0,01{sep}-1,5e-1\n0,02{sep}0,25\n")
+    with pytest.raises(ScenarioError) as exc:
+        read_csv(path)
+    message = str(exc.value)
+    assert message.startswith(f"{path}: line 3: 4 columns; a record has two"), message
+    assert "decimal commas" in message and "0.01, not 0,01" in message, message
+    path.write_text("t, a, b, c\n0.0, 0.1, 0.2, 0.3\n")
+    with pytest.raises(ScenarioError) as exc:
+        read_csv(path)
+    assert "4 columns" in str(exc.value) and "decimal commas" not in str(exc.value)
+
+
 def test_csv_units_key(tmp_path) -> None:
     """``loading.ground_motion.units = "g"`` reads a .csv in g; on another record it is
     refused."""

@@ -12,6 +12,7 @@ it slides until v0/(μg) exactly, over v0²(1 − μg/A)/(2μg) (the pulse's own
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
@@ -177,6 +178,111 @@ def test_block_slides_over_ten_slab_elements_and_stops_where_coulomb_says(
     assert t_stop == pytest.approx(v0 / (MU * G), rel=0.02)
     assert slip[-1] == pytest.approx(distance, rel=0.01)
     assert summary["node_to_surface"]["repairings"] >= 10
+
+
+def _clamped_mass(mesh: Path, rho: float) -> float:
+    """The lumped mass of the ``slab_bottom`` vertices, ρ V/4 per tetrahedron and vertex (P1),
+    read with gmsh on rank 0 (the same on every rank)."""
+    mass = 0.0
+    if COMM.rank == 0:
+        import gmsh
+
+        gmsh.initialize(interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        try:
+            gmsh.open(str(mesh))
+            group = next(
+                g
+                for g in gmsh.model.getPhysicalGroups(2)
+                if gmsh.model.getPhysicalName(*g) == "slab_bottom"
+            )
+            clamped, _ = gmsh.model.mesh.getNodesForPhysicalGroup(*group)
+            tags, xyz, _ = gmsh.model.mesh.getNodes()
+            where = np.empty(int(tags.max()) + 1, dtype=np.int64)
+            where[tags] = np.arange(tags.size)
+            xyz = xyz.reshape(-1, 3)
+            types, _, nodes = gmsh.model.mesh.getElements(3)
+            tets = np.asarray(nodes[list(types).index(4)], dtype=np.int64).reshape(-1, 4)
+            x = xyz[where[tets]]
+            volume = np.abs(np.linalg.det(x[:, 1:] - x[:, :1])) / 6.0
+            on_face = np.isin(tets, clamped).sum(axis=1)
+            mass = float(np.sum(rho * volume / 4.0 * on_face))
+        finally:
+            gmsh.finalize()
+    return float(COMM.bcast(mass, root=0))
+
+
+def test_sliding_block_outputs(shared_tmp: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """What a run of a gmsh model with a sliding contact shows (issue 32): the contact's
+    largest slip (with its time) and final slip in the end table and in results.csv as in
+    the summary; the input motion in history.csv (``ground_a*``) and in `crane-fem plot`'s
+    input_motion.png, the slip in its contact_slip.png. The support's force at t = 0 is its
+    static part (the weight of slab and block, no horizontal force) plus the ground's
+    acceleration A on the clamped vertices' own mass, m_f A along x, m_f = Σ ρV/4."""
+    mesh = shared_tmp / "block_on_slab.msh"
+    write_block_on_slab(mesh)
+    A = 2.0 * MU * G
+    write_record(shared_tmp / "step.csv", [(0.0, A), (1.0, A)])
+    toml = scenario(mesh, shared_tmp / "step.csv", 0.03, 1e-3)
+    summary, hist = run_cli(shared_tmp, toml, "outputs")
+    printed = capsys.readouterr().out
+    out = shared_tmp / "outputs"
+    feet = summary["contact_groups"]["feet"]
+    assert feet["max_slip_m"] > 1e-4 and 0.0 < feet["max_slip_time_s"] <= hist["t"][-1]
+    final = float(np.linalg.norm(feet["final_slip_m"]))
+    if COMM.rank == 0:
+        header = " contact  max slip (mm)  at t (s)  final slip (mm)  final slip x, y, z (mm)"
+        assert f"crane-fem: {header}\n" in printed, printed
+        row = printed.split(header)[1].splitlines()[1].split()
+        assert row[:4] == [
+            "crane-fem:",
+            "feet",
+            f"{feet['max_slip_m'] * 1e3:.3f}",
+            f"{feet['max_slip_time_s']:.5f}",
+        ], row
+        assert row[4] == f"{final * 1e3:.3f}", row
+    with open(out / "results.csv", newline="", encoding="utf-8") as f:
+        rows = {r["quantity"]: r for r in csv.DictReader(f) if r["where"] == "contact feet"}
+    assert float(rows["max_slip"]["value"]) == feet["max_slip_m"]
+    assert float(rows["max_slip"]["time_s"]) == feet["max_slip_time_s"]
+    assert float(rows["final_slip"]["value"]) == pytest.approx(final, rel=1e-12)
+    # The input motion: the record's constant A along x at every row.
+    assert np.all(hist["ground_ax"] == A) and not np.any(hist["ground_ay"])
+    if COMM.rank == 0:
+        assert main(["plot", str(out)]) == 0
+        for name in ("input_motion.png", "contact_slip.png"):
+            assert (out / "figures" / name).is_file(), name
+    # The support's first force and its static part.
+    s1 = summary["supports"]["1"]
+    weight = 1000.0 * (0.32 * 0.12 * 0.03 + 0.06**3) * G
+    static, initial = np.array(s1["static_force_N"]), np.array(s1["initial_force_N"])
+    assert static[2] == pytest.approx(weight, rel=1e-6)
+    assert np.abs(static[:2]).max() < 1e-9 * weight
+    m_f = _clamped_mass(mesh, 1000.0)
+    print(f"clamped mass {m_f:.6g} kg: initial - static = {initial - static} N, m_f A = {m_f * A}")
+    assert initial[0] - static[0] == pytest.approx(m_f * A, rel=1e-9)
+    assert np.abs(initial[1:] - static[1:]).max() < 1e-9 * weight
+
+
+def test_small_model_drawn_in_mm_refused_by_its_mass(shared_tmp: Path, capsys) -> None:
+    """The block on its slab drawn in mm is 320 m across, within the extent rule (1 km), but
+    weighs 1.4e9 kg: refused by the mass rule (1e9 kg) in one line naming the mesh, exit 2,
+    on every rank, before any other error (the same model in metres runs in the tests
+    above)."""
+    mesh = shared_tmp / "block_on_slab_mm.msh"
+    write_block_on_slab(mesh, (320.0, 120.0, 30.0), (60.0, 60.0, 60.0), (20.0, 30.0), 30.0, 30.0)
+    write_record(shared_tmp / "zero.csv", [(0.0, 0.0), (1.0, 0.0)])
+    path = shared_tmp / "mm.toml"
+    if COMM.rank == 0:
+        path.write_text(scenario(mesh, shared_tmp / "zero.csv", 0.01, 1e-3), encoding="utf-8")
+    COMM.barrier()
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert err[0].startswith(
+        f"crane-fem: error: model.mesh: {mesh}: the mesh looks drawn in mm: its bounding box "
+        "is 320 × 120 × 90 m and its mass 1.37e+09 kg"
+    ), err
 
 
 @pytest.mark.serial  # set-up only: its two-rank behaviour is the runs' above

@@ -27,6 +27,7 @@ QUICK = DEMOS / "crane_quick.toml"
 BAR = DEMOS / "bar_impact.toml"
 MESH = ROOT / "meshes" / "crane.msh"
 OWN_MESH = DEMOS / "own_model" / "cabinet_on_slab.msh"
+FRAME_MESH = DEMOS / "own_frame" / "gantry.msh"
 BIN = Path(sys.executable).parent
 AT2_HEAD = (
     "# a comment line: counted in the line numbers\nPEER\nRSN0\n"
@@ -199,14 +200,87 @@ def _cases(tmp: Path) -> dict[str, tuple[list[str], list[str]]]:
             ["support[0].group", "'ground'"],
         ),
     }
+    # A mesh drawn in mm (the demo's, scaled by 1000): refused by `check` and `run` before
+    # any other error (Δt, sampling interval, contacts), naming the mesh; a solid's and a
+    # frame's. A mesh of hexahedra: its element type named as gmsh names it.
+    own_mm, frame_mm, hexa = tmp / "cabinet_mm.msh", tmp / "gantry_mm.msh", tmp / "hexa.msh"
+    _rewrite_mesh(OWN_MESH, own_mm, 1000.0)
+    _rewrite_mesh(FRAME_MESH, frame_mm, 1000.0)
+    _write_hexahedra(hexa)
+    drawn_in_mm = ["model.mesh", "the mesh looks drawn in mm", "2000 × 1200 × 1200 m"]
+    variants |= {
+        "gmsh_mesh_in_mm": (own_text.replace(str(OWN_MESH), str(own_mm)), drawn_in_mm),
+        "gmsh_hexahedra": (
+            own_text.replace(str(OWN_MESH), str(hexa)),
+            ["model.mesh", "hexa.msh", "gmsh types 5 (Hexahedron 8)", "type 4"],
+        ),
+    }
+    frame_text = (DEMOS / "own_frame" / "gantry.toml").read_text()
+    frame_text = frame_text.replace('mesh = "gantry.msh"', f'mesh = "{frame_mm}"')
+    variants["frame_mesh_in_mm"] = (
+        frame_text,
+        ["model.mesh", str(frame_mm), "the mesh looks drawn in mm", "6000 × 100 × 4150 m"],
+    )
     for name, (text, fragments) in variants.items():
         path = tmp / f"{name}.toml"
         path.write_text(text)
         cases[name] = (["check", str(path)], fragments)
+    run_mm = ["run", str(tmp / "gmsh_mesh_in_mm.toml"), "-o", str(tmp / "mm_out")]
+    cases["gmsh_mesh_in_mm_run"] = (run_mm, [str(own_mm), *drawn_in_mm])
+    # A record written with decimal commas: four columns, and the hint.
+    comma = tmp / "decimal_comma.csv"
+    comma.write_text("t;a\n0;0\n0,01;0,25\n0,02;-0,5\n")
+    cases["record_decimal_commas"] = (
+        ["check", q, "--set", f"loading.ground_motion={{record='{comma}'}}"],
+        [f"{comma}: line 3: 4 columns", "decimal commas", "0.01, not 0,01"],
+    )
     unwritable = _unwritable(tmp)
     if unwritable is not None:
         cases["outdir_unwritable"] = (["run", q, "-o", str(unwritable)], [str(unwritable)])
     return cases
+
+
+def _rewrite_mesh(src: Path, dst: Path, scale: float) -> None:
+    """``src`` written again to ``dst`` with its coordinates times ``scale`` (gmsh's
+    Mesh.ScalingFactor; this process only)."""
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    try:
+        gmsh.open(str(src))
+        gmsh.option.setNumber("Mesh.ScalingFactor", scale)
+        gmsh.write(str(dst))
+    finally:
+        gmsh.finalize()
+
+
+def _write_hexahedra(path: Path) -> None:
+    """A unit cube of 2 × 2 × 2 hexahedra (gmsh type 5) whose groups are named as the cabinet
+    demo's (this process only)."""
+    import gmsh
+
+    gmsh.initialize(interruptible=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    try:
+        box = gmsh.model.occ.addBox(0.0, 0.0, 0.0, 1.0, 1.0, 1.0)
+        gmsh.model.occ.synchronize()
+        for name in ("slab_base", "slab_top_layer", "cabinet"):
+            gmsh.model.addPhysicalGroup(3, [box], name=name)
+        faces = [t for _, t in gmsh.model.getBoundary([(3, box)], oriented=False)]
+        for name in ("slab_underside", "cabinet_feet", "floor"):
+            gmsh.model.addPhysicalGroup(2, faces[:1], name=name)
+        for _, c in gmsh.model.getEntities(1):
+            gmsh.model.mesh.setTransfiniteCurve(c, 3)
+        for _, f in gmsh.model.getEntities(2):
+            gmsh.model.mesh.setTransfiniteSurface(f)
+        gmsh.model.mesh.setTransfiniteVolume(box)
+        gmsh.option.setNumber("Mesh.RecombineAll", 1)
+        gmsh.option.setNumber("Mesh.Recombine3DAll", 1)
+        gmsh.model.mesh.generate(3)
+        gmsh.write(str(path))
+    finally:
+        gmsh.finalize()
 
 
 def _spawn(args: list[str]) -> subprocess.CompletedProcess[str]:
@@ -241,6 +315,7 @@ def test_bad_inputs_one_line_on_every_rank_under_mpiexec(mpiexec_errors) -> None
         for f in fragments:
             assert f in lines[0], (name, f, lines[0])
         assert "more problem" not in lines[0] and "[also" not in lines[0], (name, lines[0])
+        assert "np." not in lines[0], (name, lines[0])  # plain numbers, not numpy reprs
 
 
 def test_check_names_what_will_run(capsys) -> None:
@@ -554,3 +629,27 @@ def test_check_prints_what_damping_costs(capsys) -> None:
         assert "46049400 micro steps" in out
     assert main(["check", str(QUICK)]) == 0
     assert "damping" not in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("scene", "contact"),
+    [("own_model/cabinet_on_slab.toml", "feet"), ("own_frame/gantry.toml", "wheels")],
+    ids=["gmsh", "frame"],
+)
+def test_zero_gravity_on_resting_contacts_warns(capsys, scene, contact) -> None:
+    """A gmsh model or a frame whose contacts touch at t = 0, without gravity: nothing presses
+    them, and `check` says so in one warning line (on rank 0 only: one line whatever the
+    ranks), exit 0. With gravity nothing is said."""
+    path = str(DEMOS / scene)
+    assert main(["check", path, "--set", "loading.gravity=[0.0, 0.0, 0.0]"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    if COMM.rank == 0:
+        assert len(err) == 1, err
+        assert err[0].startswith(
+            f"crane-fem: warning: loading.gravity is zero, yet contact '{contact}' touches at "
+            "t = 0: nothing presses it"
+        ), err
+    else:
+        assert err == [], err
+    assert main(["check", path]) == 0
+    assert "warning" not in capsys.readouterr().err

@@ -92,6 +92,12 @@ def read_physical_names(path: str | Path, cells: int = 3) -> PhysicalNames:
     return PhysicalNames(found[3], found[2], found[1], found[0])
 
 
+def _type_names(types: set[int]) -> str:
+    """gmsh element types with their names, e.g. ``5 (Hexahedron 8), 6 (Prism 6)`` (gmsh
+    initialized)."""
+    return ", ".join(f"{t} ({gmsh.model.mesh.getElementProperties(t)[0]})" for t in sorted(types))
+
+
 def distribute_gmsh_model(
     comm: MPI.Comm, error: str | None, gdim: int = 3
 ) -> dolfinx.io.gmsh.MeshData:
@@ -136,10 +142,10 @@ def create_gmsh_mesh(comm: MPI.Comm, path: str | Path) -> TaggedMesh:
         gmsh.option.setNumber("General.NumThreads", 1)
         try:
             gmsh.open(str(path))
-            types = {t for d in (3,) for t in gmsh.model.mesh.getElementTypes(d)}
+            types = {int(t) for t in gmsh.model.mesh.getElementTypes(3)}
             if types != {4}:  # 4: the 4-node tetrahedron
                 error = (
-                    f"model.mesh: {path} holds 3D elements of gmsh types {sorted(types)}; "
+                    f"model.mesh: {path} holds 3D elements of gmsh types {_type_names(types)}; "
                     "P1 tetrahedra (type 4) only (gmsh.model.mesh.generate(3), order 1)"
                 )
         except Exception as exc:  # gmsh raises bare Exception on a corrupt file
@@ -176,7 +182,7 @@ def create_frame_mesh(comm: MPI.Comm, path: str | Path) -> TaggedMesh:
             if lines != {1} or higher:
                 error = (
                     f"model.mesh: {path} holds elements of gmsh types "
-                    f"{sorted(lines | higher)}; a frame takes 2-node lines only (type 1: "
+                    f"{_type_names(lines | higher)}; a frame takes 2-node lines only (type 1: "
                     "gmsh.model.mesh.generate(1), order 1)"
                 )
         except Exception as exc:  # gmsh raises bare Exception on a corrupt file

@@ -1,5 +1,6 @@
-"""The results table of a run: the peaks an engineer reads (wheels, impacts, bridge stress,
-supports) as ``results.csv`` and as lines to print, from the summary."""
+"""The results table of a run: the peaks an engineer reads (wheels and contacts, impacts,
+slip, bridge stress, supports) as ``results.csv`` and as lines to print after the run's own
+line (steps, wall time, energy balance), from the summary."""
 
 from __future__ import annotations
 
@@ -7,7 +8,9 @@ import csv
 from pathlib import Path
 from typing import Any
 
-__all__ = ["flange_impacts", "results_lines", "results_rows", "write_results_csv"]
+import numpy as np
+
+__all__ = ["flange_impacts", "results_lines", "results_rows", "run_line", "write_results_csv"]
 
 COLUMNS = ["quantity", "where", "value", "unit", "time_s", "x_m", "y_m", "z_m"]
 
@@ -33,6 +36,9 @@ def results_rows(summary: dict[str, Any]) -> list[dict[str, Any]]:
         if "max_slip_across_m" in w:
             add("max_slip_across", where, w["max_slip_across_m"], "m", w["max_slip_across_time_s"])
             add("max_slip_along", where, w["max_slip_along_m"], "m", w["max_slip_along_time_s"])
+        if "max_slip_m" in w:  # a gmsh model's or a frame's sliding contact
+            add("max_slip", where, w["max_slip_m"], "m", w.get("max_slip_time_s"))
+            add("final_slip", where, float(np.linalg.norm(w["final_slip_m"])), "m")
     for name, f in summary.get("flanges", {}).items():
         where = f"flange {name}"
         add("peak_contact_force", where, f["peak_force_N"], "N", f["peak_force_time_s"])
@@ -66,6 +72,31 @@ def write_results_csv(path: str | Path, summary: dict[str, Any]) -> None:
             writer.writerow({k: ("" if v is None else v) for k, v in row.items()})
 
 
+def run_line(name: str, s: dict[str, Any]) -> str:
+    """The first line a run prints, from its summary ``s``: its steps (a refining run's coarse
+    and fine macro steps, a coupled run's macro and micro steps, or a single integrator's
+    steps), its wall time, energy-balance error and contact intervals (not collective)."""
+    ad = s.get("adaptive")
+    if ad:  # the macro step refined at impacts: how many of each
+        steps = (
+            f"{s['steps_done']} macro steps ({ad['coarse_steps']} of ΔT = {s['dT']:.4e} s, "
+            f"m = {ad['coarse_ratio']}; {ad['fine_steps']} of m = {ad['fine_ratio']} around "
+            f"impacts), {s['micro_steps_done']} micro steps of Δt = {s['dt']:.4e} s ("
+        )
+    elif s.get("ratio", 1) > 1:  # coupled: macro steps of m micro steps
+        steps = (
+            f"{s['steps']} macro steps of ΔT = {s['dT']:.4e} s (m = {s['ratio']}, "
+            f"{s['micro_steps']} micro steps of Δt = {s['dt']:.4e} s, "
+        )
+    else:
+        steps = f"{s.get('micro_steps', s['steps'])} steps of Δt = {s['dt']:.4e} s ("
+    return (
+        f"{name}: {steps}critical {s['dt_critical']:.4e} s) in {s['wall_time_s']:.2f} s; "
+        f"energy balance error {s['energy_balance_error']:.2e}; "
+        f"{s['contact_intervals']} contact interval(s)"
+    )
+
+
 def results_lines(summary: dict[str, Any]) -> list[str]:
     """The table in a few lines to print at the end of a run."""
     lines: list[str] = []
@@ -92,6 +123,7 @@ def results_lines(summary: dict[str, Any]) -> list[str]:
                 f"{len(imps):7d}  {big:21.4g}"
             )
     lines += _sliding_lines(summary)
+    lines += _contact_slip_lines(summary)
     if "peak_bridge_von_mises_Pa" in summary:
         loc = summary.get("peak_bridge_von_mises_location_m")
         at = f" at ({', '.join(f'{x:.3f}' for x in loc)}) m" if loc else ""
@@ -134,5 +166,24 @@ def _sliding_lines(summary: dict[str, Any]) -> list[str]:
         lines.append(
             f"{name:>8}  {w['max_slip_across_m'] * 1e3:16.3f}  {w['max_slip_along_m'] * 1e3:15.3f}"
             f"  {w['slip_reach_m'] * 1e3:10.2f}  {flange}"
+        )
+    return lines
+
+
+def _contact_slip_lines(summary: dict[str, Any]) -> list[str]:
+    """Per sliding contact of a gmsh model or a frame: its largest point slip with its time,
+    and its points' mean slip at the end (its size and its x, y, z components)."""
+    groups = summary.get("contact_groups", {})
+    slipping = {k: g for k, g in groups.items() if "max_slip_m" in g}
+    if not slipping:
+        return []
+    lines = [" contact  max slip (mm)  at t (s)  final slip (mm)  final slip x, y, z (mm)"]
+    for name, g in slipping.items():
+        final = np.asarray(g["final_slip_m"], dtype=np.float64) * 1e3
+        t = g.get("max_slip_time_s")
+        at = f"{t:8.5f}" if t is not None else f"{'':8}"
+        xyz = ", ".join(f"{c if abs(c) >= 5e-4 else 0.0:.3f}" for c in final)  # no "-0.000"
+        lines.append(
+            f"{name:>8}  {g['max_slip_m'] * 1e3:13.3f}  {at}  {np.linalg.norm(final):15.3f}  {xyz}"
         )
     return lines

@@ -123,6 +123,26 @@ def read_at2(path: str | Path) -> Accelerogram:
     return Accelerogram(dt * np.arange(npts, dtype=np.float64), G * values, p.stem)
 
 
+#: A number written with a decimal comma (``0,01``, ``-1,5e-3``).
+_DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+(?:[eE][+-]?\d+)?")
+
+
+def _decimal_comma_hint(line: str) -> str:
+    """The hint for a row that splits into two numbers with decimal commas once the commas
+    are no longer taken as separators (``0,01;0,25``, ``0,01<tab>0,25``), else ``""``."""
+    fields = [f for f in re.split(r"[;\s]+", line.strip()) if f]
+    if (
+        len(fields) == 2
+        and all(_DECIMAL_COMMA.fullmatch(f) or re.fullmatch(r"[+-]?\d+", f) for f in fields)
+        and "," in line
+    ):
+        return (
+            f": {line.strip()!r} looks written with decimal commas; write decimal points "
+            "(0.01, not 0,01), e.g. by exporting the spreadsheet with an English locale"
+        )
+    return ""
+
+
 def read_csv(path: str | Path, units: str = "m/s2") -> Accelerogram:
     """Read a two-column record (t in s, a in ``units``: 'm/s2' or 'g'), its columns separated
     by commas, semicolons, tabs or spaces; a header row is allowed, a third column is not.
@@ -154,7 +174,7 @@ def read_csv(path: str | Path, units: str = "m/s2") -> Accelerogram:
         if len(parts) != 2:
             raise ScenarioError(
                 f"{p}: line {k + 1}: {len(parts)} columns; a record has two, 't, a' (time in s, "
-                "acceleration)"
+                f"acceleration){_decimal_comma_hint(line)}"
             )
         if not all(math.isfinite(x) for x in row):
             raise ScenarioError(f"{p}: line {k + 1}: {line.strip()!r} is not a finite number")

@@ -1,6 +1,6 @@
 """The slip of a structure's sliding contacts (a gmsh model's node-to-surface, a frame's
 point-on-line) as a macro-step monitor: each contact's mean slip vector in the history, its
-largest point slip and its slip at the end in the summary's ``contact_groups``."""
+largest point slip (and when) and its slip at the end in the summary's ``contact_groups``."""
 
 from __future__ import annotations
 
@@ -27,9 +27,11 @@ class ContactSlipMonitor:
         used, self.group = np.unique(groups, return_inverse=True)
         self.names = [sliding.names[int(g)] for g in used]
         n = len(self.names)
-        #: Per contact: its points' mean slip vector now (m) and the largest point slip (m).
+        #: Per contact: its points' mean slip vector now (m), the largest point slip (m) and
+        #: the time it was reached (s).
         self.mean = np.zeros((n, 3))
         self.peak = np.zeros(n)
+        self.t_peak = np.zeros(n)
 
     @property
     def columns(self) -> list[str]:
@@ -50,24 +52,27 @@ class ContactSlipMonitor:
         size = np.linalg.norm(slip, axis=1)
         peak = np.zeros(n)
         np.maximum.at(peak, self.group, size)
-        self.peak = np.maximum(self.peak, peak)
+        better = peak > self.peak
+        self.peak[better], self.t_peak[better] = peak[better], rec.t
 
     def summarize(self, summary: dict[str, Any]) -> None:
-        """Each contact's ``max_slip_m`` (its largest point slip at a sampling instant) and
-        ``final_slip_m`` (its points' mean slip vector at the end) into its row of
-        ``contact_groups``."""
+        """Each contact's ``max_slip_m`` (its largest point slip at a sampling instant),
+        ``max_slip_time_s`` (that instant) and ``final_slip_m`` (its points' mean slip vector
+        at the end) into its row of ``contact_groups``."""
         table = summary.setdefault("contact_groups", {})
         for k, name in enumerate(self.names):
             row = table.setdefault(name, {})
             row["max_slip_m"] = float(self.peak[k])
+            row["max_slip_time_s"] = float(self.t_peak[k])
             row["final_slip_m"] = self.mean[k].tolist()
 
     def state_dict(self) -> dict[str, Any]:
-        return {"mean": self.mean.copy(), "peak": self.peak.copy()}
+        return {"mean": self.mean.copy(), "peak": self.peak.copy(), "t_peak": self.t_peak.copy()}
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.mean = np.asarray(state["mean"], dtype=np.float64).reshape(-1, 3)
         self.peak = np.asarray(state["peak"], dtype=np.float64)
+        self.t_peak = np.asarray(state.get("t_peak", np.zeros_like(self.peak)), dtype=np.float64)
 
     def destroy(self) -> None:
         pass

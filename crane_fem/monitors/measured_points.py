@@ -1,5 +1,6 @@
-"""The measured points as a macro-step monitor: their absolute accelerations sampled every
-sampling interval for the history, and their response spectra written at the end."""
+"""The measured points as a macro-step monitor: the input ground acceleration and the points'
+absolute accelerations sampled every sampling interval for the history, and their response
+spectra written at the end."""
 
 from __future__ import annotations
 
@@ -35,6 +36,8 @@ class MeasuredPoints:
         return self.motions.ground_row(t) | self.row
 
     def update(self, rec: MacroRecord, last: bool) -> None:
+        if not self.motions.points:  # the ground's columns alone: nothing to sample
+            return
         at = rec.implicit_at(self.motions.implicit_dofs)
         self.row = self.motions.sample(rec.t, rec.explicit_u, at[0] if at is not None else None)
 
@@ -92,11 +95,12 @@ class MeasuredPoints:
 
 
 def create_measured_points(sim: Simulation, out: Path) -> MeasuredPoints | None:
-    """The absolute motions measured for response spectra (collective; None without
-    points)."""
+    """The absolute motions measured for response spectra (collective): the points' and the
+    ground's; the ground's alone (its history columns, no spectra) where the scene names no
+    point; None without points and without ground motion."""
     sc = sim.scenario
     points = default_points(sc)
-    if not points:
+    if not points and not sc.loading.ground_motions:
         return None
     ids, xyz = owned_vertices(sim)
     check_points(points, xyz, sim.mesh.comm)

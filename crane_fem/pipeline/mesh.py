@@ -29,6 +29,7 @@ from crane_fem.pipeline.frame import (
     frame_supports,
     rope_held_vertices,
 )
+from crane_fem.pipeline.scale import check_mesh_scale
 from crane_fem.scenario import (
     BarModel,
     BlockModel,
@@ -288,6 +289,8 @@ def _frame_stage(sc: Scenario, comm: MPI.Comm, mdl: FrameModel) -> MeshStage:
     masses (collective)."""
     tagged = create_frame_mesh(comm, mdl.mesh)
     fields = frame_fields(sc, tagged)
+    assert fields.section is not None
+    check_mesh_scale(mdl.mesh, tagged.mesh, fields.rho, fields.section.A)
     clamped, pinned, faces = frame_supports(sc, tagged)
     assert not isinstance(fields.rho, float)
     return MeshStage(
@@ -320,6 +323,9 @@ def build_mesh(sc: Scenario, comm: MPI.Comm) -> MeshStage:
         _cell_material(sc, tagged) if isinstance(mdl, CraneModel | GmshModel) else (None, None)
     )
     density = material.rho if material is not None else None
+    if isinstance(mdl, GmshModel):  # a user's mesh: drawn in metres? (before pairing on it)
+        assert density is not None
+        check_mesh_scale(mdl.mesh, tagged.mesh, density)
     # Per-cell E and ν only where they vary (a gmsh model's [[material]] entries).
     cells = material if material is not None and len(sc.materials) > 1 else None
     surfaces = _surface_contacts(sc, tagged) if isinstance(mdl, GmshModel) else ()

@@ -4,6 +4,7 @@ assembled operators) and the step sizes."""
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -173,6 +174,30 @@ def _gmsh_preload(sc: Scenario, mesh: MeshStage) -> Preload:
     )
 
 
+def _warn_unpressed(mesh: MeshStage) -> None:
+    """Without gravity, warn (once, on rank 0) of the contacts whose points touch at t = 0:
+    nothing presses them, so they hold nothing (collective: the model's extent)."""
+    fc = mesh.frame_contacts
+    if fc is not None:
+        points, names = frame_bonded_points(fc), list(fc.names)
+    else:
+        points, names = bonded_points(mesh), [c.name for c in mesh.surface_contacts]
+    touching = points.group[points.gap <= TOUCHING * mesh.extent()]
+    resting = [names[int(k)] for k in np.unique(touching)]
+    if not resting or mesh.comm.rank != 0:
+        return
+    which = ", ".join(repr(n) for n in resting)
+    one = len(resting) == 1
+    warnings.warn(
+        f"loading.gravity is zero, yet contact{'' if one else 's'} {which} "
+        f"touch{'es' if one else ''} at t = 0: nothing presses {'it' if one else 'them'}, so "
+        f"{'it carries' if one else 'they carry'} no force and no friction; give "
+        "loading.gravity = [0.0, 0.0, -9.81] for a structure that stands on its contacts",
+        UserWarning,
+        stacklevel=3,
+    )
+
+
 def _rope_frequency(sub: Subdomain, ropes: RopeSpec) -> float:
     """The largest √(k (1/m_a + 1/m_b)) of the ropes (rad/s), m the ends' lumped
     translational masses (collective)."""
@@ -209,6 +234,8 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
     users = isinstance(mdl, GmshModel | FrameModel)
     if users and sc.initial.preload and np.any(np.asarray(sc.loading.gravity) != 0.0):
         preload = _gmsh_preload(sc, mesh)
+    if users and not np.any(np.asarray(sc.loading.gravity) != 0.0):
+        _warn_unpressed(mesh)
     explicit_specs = [s for s in specs if s[1] == "cd-lagrange"]
     implicit_specs = [s for s in specs if s[1] in ("newmark", "newmark-reduced")]
     explicit = implicit = None

@@ -18,6 +18,8 @@ to ``OUTDIR/figures/``:
   as a fraction of the external work;
 - ``contact_forces.png``: contact force per wheel group, runs overlaid, each run's peak (from
   every micro step, summary.json) marked;
+- ``slip.png``: each wheel's slip across and along its rail; ``contact_slip.png``: a gmsh
+  model's or a frame's contacts' mean slip, each one's largest point slip marked;
 - ``spectra.png``: pseudo-acceleration response spectra (``spectra.csv``), a panel per
   direction, when the runs wrote them;
 - ``render_peak.png`` (and ``render_peak_<run>.png`` for the other runs): the deformed mesh at
@@ -41,6 +43,7 @@ from crane_fem.plotting.render import nearest_frame, render_peak, render_runs
 from crane_fem.plotting.response_spectra import spectra_figure
 from crane_fem.plotting.runs import Run, load_runs
 from crane_fem.plotting.wheels import (
+    contact_slip_figure,
     force_figure,
     group_wheels,
     pair_figure,
@@ -109,6 +112,7 @@ def plot_figures(outdir: Path) -> Figures:
     made.append(interface_figure(runs, figdir / "fig8_interface_energy.png"))
     made.append(force_figure(runs, figdir / "contact_forces.png"))
     made.append(slip_figure(runs, figdir / "slip.png"))
+    made.append(contact_slip_figure(runs, figdir / "contact_slip.png"))
     made.append(spectra_figure(runs, figdir / "spectra.png"))
     made.extend(render_runs(runs, figdir))
     notes = [m for r in runs if (m := r.incomplete_message()) is not None]

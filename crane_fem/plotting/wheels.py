@@ -1,4 +1,5 @@
-"""Per-wheel figures (Figs. 5–6 and the contact forces), one panel per group of identical wheels.
+"""Per-wheel figures (Figs. 5–6, the contact forces, the slip), one panel per group of identical
+wheels; the contact forces and slip of a gmsh model's or a frame's contacts, one panel each.
 
 The crane's four wheels often move alike (a symmetric scene under a vertical record): four
 copies of one curve hide the runs' differences in four small panels. Wheels whose histories
@@ -19,6 +20,7 @@ from crane_fem.plotting.style import figure_legend, run_colour, run_width, save
 
 __all__ = [
     "WHEEL_RTOL",
+    "contact_slip_figure",
     "force_figure",
     "group_label",
     "group_wheels",
@@ -268,3 +270,68 @@ def slip_figure(runs: list[Run], path: Path) -> Path | None:
     for ax in axes[-1]:
         ax.set_xlabel("t (s)")
     return save(fig, path, figure_title(runs, "wheel slip on the rails"))
+
+
+#: The slip components drawn, by line style.
+_COMPONENT_DASHES = {"x": "-", "y": "--", "z": ":"}
+
+
+def contact_slip_figure(runs: list[Run], path: Path) -> Path | None:
+    """Each sliding contact's mean slip (history ``<contact>_slip_<x|y|z>``), a panel per
+    contact, runs overlaid (colour), components by line style (those that move, above 0.1 %
+    of the contact's largest); the largest slip of one point (summary ``contact_groups``
+    ``max_slip_m`` at ``max_slip_time_s``) marked for each run. None without such columns
+    (the crane's wheels are :func:`slip_figure`'s)."""
+    import matplotlib.pyplot as plt
+
+    names = [c[: -len("_slip_x")] for c in runs[0].history if c.endswith("_slip_x")]
+    if not names:
+        return None
+    fig, axes = plt.subplots(
+        len(names),
+        1,
+        figsize=(9, 1.6 + 2.2 * len(names)),
+        squeeze=False,
+        sharex=True,
+        layout="constrained",
+    )
+    drawn: set[str] = set()
+    for ax, name in zip(axes[:, 0], names, strict=True):
+        cols = {c: f"{name}_slip_{c}" for c in _COMPONENT_DASHES}
+        big = max(
+            (
+                float(np.max(np.abs(r.history[col])))
+                for r in runs
+                for col in cols.values()
+                if col in r.history
+            ),
+            default=0.0,
+        )
+        for i, run in enumerate(runs):
+            for c, col in cols.items():
+                if col not in run.history or np.max(np.abs(run.history[col])) <= 1e-3 * big:
+                    continue
+                drawn.add(c)
+                ax.plot(
+                    run.history["t"],
+                    1e3 * run.history[col],
+                    _COMPONENT_DASHES[c],
+                    color=run_colour(i),
+                    lw=run_width(i),
+                )
+            g = (run.summary.get("contact_groups") or {}).get(name, {})
+            if "max_slip_m" in g and "max_slip_time_s" in g:
+                ax.plot(g["max_slip_time_s"], 1e3 * g["max_slip_m"], "v", color=run_colour(i))
+        _mark_stops(ax, runs)
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_title(f"contact {name}: mean slip of its points", fontsize=9, loc="left")
+        ax.set_ylabel("slip (mm)")
+        ax.grid(alpha=0.3)
+    figure_legend(
+        fig,
+        [(r.label, {"color": run_colour(i), "lw": run_width(i)}) for i, r in enumerate(runs)]
+        + [(c, {"color": "k", "ls": d}) for c, d in _COMPONENT_DASHES.items() if c in drawn]
+        + [("largest slip of one point", {"color": "k", "marker": "v", "ls": "none"})],
+    )
+    axes[-1, 0].set_xlabel("t (s)")
+    return save(fig, path, figure_title(runs, "contact slip (relative to the surface)"))
