@@ -59,6 +59,7 @@ class _Coefficients:
         s = fields.section
         if s is None:
             raise ValueError("a beam formulation needs section fields")
+        self.msh = msh
         self.E = coefficient(msh, fields.E)
         self.nu = coefficient(msh, fields.nu)
         self.rho = coefficient(msh, fields.rho)
@@ -88,12 +89,23 @@ class _Coefficients:
         )
 
     def rigidities(self) -> tuple[object, ...]:
-        """(EA, k1 GA, k2 GA, GJ, EI1, EI2)."""
+        """(EA, (k1 GA)*, (k2 GA)*, GJ, EI1, EI2), the shear rigidities with the residual
+        bending flexibility (MacNeal 1978): 1/(k1 GA)* = 1/(k1 GA) + le²/(12 EI2) (γ1 bends
+        about a2), likewise for 2 with EI1. The one-point element then has the exact
+        Timoshenko stiffness of a two-node beam (Przemieniecki's, with its shear parameter
+        Φ = 12 EI/(k GA le²)): nodal displacements exact under nodal loads, the bending
+        energy of the cubic deflection the linear field cannot hold restored."""
         E, G, A = self.E, self.G, self.A
+        le2 = ufl.CellVolume(self.msh) ** 2
+
+        def shear(kga: object, ei: object) -> object:
+            den = 12.0 * ei + kga * le2
+            return ufl.conditional(ufl.gt(den, 0.0), 12.0 * ei * kga / den, 0.0)
+
         return (
             E * A,
-            self.k1 * G * A,
-            self.k2 * G * A,
+            shear(self.k1 * G * A, E * self.I2),
+            shear(self.k2 * G * A, E * self.I1),
             G * self.J,
             E * self.I1,
             E * self.I2,
@@ -221,7 +233,7 @@ class TimoshenkoBeam:
     def element_steps(self, msh: dolfinx.mesh.Mesh, fields: CellFields) -> FloatArray:
         """2/ω_max of each owned element with its lumped mass, from its three fastest
         modes: axial and antisymmetric rotation 2c/le, torsion (2/le) √(GJ/(ρ Ip)), the
-        one-point shear mode √(k G A/(ρ I))."""
+        one-point shear mode √((k G A)*/(ρ I)) per plane."""
         n = msh.topology.index_map(1).size_local
         s = fields.section
         assert s is not None
@@ -230,12 +242,15 @@ class TimoshenkoBeam:
         E, nu, rho = fields_owned(fields, n)
         G = E / (2.0 * (1.0 + nu))
         A, I1, I2, J = s.A[:n], s.I1[:n], s.I2[:n], s.J[:n]
-        k = np.minimum(s.k1[:n], s.k2[:n])
+        # The shear rigidities with the residual bending flexibility (see rigidities()).
+        kga1 = 12.0 * E * I2 * s.k1[:n] * G * A / (12.0 * E * I2 + s.k1[:n] * G * A * le**2)
+        kga2 = 12.0 * E * I1 * s.k2[:n] * G * A / (12.0 * E * I1 + s.k2[:n] * G * A * le**2)
         omega = np.max(
             [
                 2.0 / le * np.sqrt(E / rho),
                 2.0 / le * np.sqrt(G * J / (rho * (I1 + I2))),
-                np.sqrt(k * G * A / (rho * np.minimum(I1, I2))),
+                np.sqrt(kga1 / (rho * I2)),
+                np.sqrt(kga2 / (rho * I1)),
             ],
             axis=0,
         )
