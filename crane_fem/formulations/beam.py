@@ -17,6 +17,8 @@ the tensor's diagonal, positive: the explicit step stays that of the rotary term
 
 from __future__ import annotations
 
+from typing import Any
+
 import dolfinx
 import numpy as np
 import numpy.typing as npt
@@ -98,7 +100,7 @@ class _Coefficients:
         E, G, A = self.E, self.G, self.A
         le2 = ufl.CellVolume(self.msh) ** 2
 
-        def shear(kga: object, ei: object) -> object:
+        def shear(kga: Any, ei: Any) -> Any:
             den = 12.0 * ei + kga * le2
             return ufl.conditional(ufl.gt(den, 0.0), 12.0 * ei * kga / den, 0.0)
 
