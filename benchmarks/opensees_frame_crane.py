@@ -1431,9 +1431,10 @@ def part_transient(
         "",
         "softer, stiffer: k_c ÷ 10, × 10. as shipped: OpenSees' UniformExcitation as it comes "
         "(the elements' own mass applied twice, see the top). our preload's ties: the gravity "
-        "step also ties each wheel along and across its rail, as our preload does (zero-length "
-        "springs of our k_p), and they are removed at t = 0: the start our run has (its "
-        "preload ties the three rows; its contact is frictionless).",
+        "step also ties each wheel along and across its rail (zero-length springs of our k_p), "
+        "removed at t = 0, as our preload did until session 18 (the released ties lifted the "
+        "wheels; ours now ties those rows at 1e-9 k_p: a wheel at rest carries no tangential "
+        "force).",
         "",
         "At equal accuracy (both the averaged peak and the impulse within the tolerance of "
         "the reference; the fastest median wall time of each code's runs, our reference "
