@@ -91,6 +91,16 @@ def run_serial_and_two_ranks(args: list[str], tmp: Path) -> tuple[Path, Path]:
     return serial, par
 
 
+def error_line(code: int, capsys: pytest.CaptureFixture[str]) -> str:
+    """This rank's exit code and output, as the one error line a bad input must give (else a
+    description of what came instead)."""
+    out, err = capsys.readouterr()
+    lines = err.strip().splitlines()
+    if code != 2 or out or len(lines) != 1 or not lines[0].startswith("crane-fem: error: "):
+        return f"exit code {code}, stdout {out!r}, stderr {err!r}"
+    return lines[0]
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     """Tests marked ``serial`` launch their own MPI jobs: run them only in the serial pass."""
     if COMM.size == 1:

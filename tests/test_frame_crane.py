@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_same_histories, run_serial_and_two_ranks
+from conftest import COMM, assert_same_histories, error_line, run_serial_and_two_ranks
 
 from crane_fem.cli import main
 from crane_fem.driver import RunResult, run_scenario
@@ -260,24 +260,14 @@ BAD: dict[str, tuple[list[str], list[str]]] = {
 }
 
 
-def _line(code: int, capsys: pytest.CaptureFixture[str]) -> str:
-    """This rank's exit code and output as the one error line expected (else a description
-    of what came instead)."""
-    out, err = capsys.readouterr()
-    lines = err.strip().splitlines()
-    if code != 2 or out or len(lines) != 1 or not lines[0].startswith("crane-fem: error: "):
-        return f"exit code {code}, stdout {out!r}, stderr {err!r}"
-    return lines[0]
-
-
 @pytest.mark.parametrize("name", list(BAD))
 def test_bad_frame_crane_input(name, shared_tmp, capsys) -> None:
     """`check` and `run` end with exit code 2 and the same one line naming the key, on every
     rank (the lines gathered before the verdict)."""
     args, fragments = BAD[name]
-    checked = _line(main(["check", str(VERTICAL), *args]), capsys)
+    checked = error_line(main(["check", str(VERTICAL), *args]), capsys)
     out = str(shared_tmp / "out")
-    ran = _line(main(["run", str(VERTICAL), "-o", out, "--no-progress", *args]), capsys)
+    ran = error_line(main(["run", str(VERTICAL), "-o", out, "--no-progress", *args]), capsys)
     lines = COMM.allgather((checked, ran))
     assert len(set(lines)) == 1, lines
     assert ran == checked and checked.startswith("crane-fem: error: "), (ran, checked)

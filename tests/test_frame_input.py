@@ -18,7 +18,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
-from conftest import COMM, mpiexec_env
+from conftest import COMM, error_line, mpiexec_env
 
 from crane_fem.cli import main
 from crane_fem.geometry.frame_sketch import FrameSketch
@@ -160,16 +160,6 @@ def test_the_frame_is_valid(frame: Path, capsys: pytest.CaptureFixture[str]) -> 
     assert "ok (frame;" in capsys.readouterr().out or COMM.rank != 0
 
 
-def _line(code: int, capsys: pytest.CaptureFixture[str]) -> str:
-    """This rank's exit code and output, as the one error line expected (else a description
-    of what came instead)."""
-    out, err = capsys.readouterr()
-    lines = err.strip().splitlines()
-    if code != 2 or out or len(lines) != 1 or not lines[0].startswith("crane-fem: error: "):
-        return f"exit code {code}, stdout {out!r}, stderr {err!r}"
-    return lines[0]
-
-
 @pytest.mark.parametrize("name", list(CASES))
 def test_bad_frame_input(
     frame: Path, name: str, shared_tmp: Path, capsys: pytest.CaptureFixture[str]
@@ -177,9 +167,9 @@ def test_bad_frame_input(
     """`check` and `run` end with exit code 2 and the same one line, naming the key, on
     every rank (the lines gathered before the verdict: the same on every rank)."""
     args, fragments = case_args(frame, name)
-    checked = _line(main(["check", str(frame), *args]), capsys)
+    checked = error_line(main(["check", str(frame), *args]), capsys)
     out = str(shared_tmp / "out")
-    ran = _line(main(["run", str(frame), "-o", out, "--no-progress", *args]), capsys)
+    ran = error_line(main(["run", str(frame), "-o", out, "--no-progress", *args]), capsys)
     lines = COMM.allgather((checked, ran))
     assert len(set(lines)) == 1, lines
     assert ran == checked, (ran, checked)
