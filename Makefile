@@ -46,7 +46,8 @@ test: $(BIN)/.installed
 	$(MAKE) --no-print-directory test-mpi
 
 # The main job: the crane scene heterogeneous (GC, m = 100) and fully explicit, the paper's
-# figures and the comparison (about 2 minutes on 2 cores from a fresh clone; the mesh is committed).
+# figures and the comparison (about 2 minutes on 2 cores once the kernels are compiled, 2 more
+# the first time; the mesh is committed).
 demo: $(BIN)/.installed
 	$(BIN)/crane-fem run demos/crane.toml -o out/crane/heterogeneous
 	$(BIN)/crane-fem run demos/crane.toml -o out/crane/explicit --set coupling.method='"monolithic"'
