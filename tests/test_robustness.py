@@ -19,7 +19,7 @@ from crane_fem.cli import main
 from crane_fem.errors import ScenarioError
 from crane_fem.io import prepare_output_dir
 from crane_fem.loading import read_at2, read_csv
-from crane_fem.scenario import apply_unsets, load_scenario
+from crane_fem.scenario import apply_overrides, apply_unsets, load_scenario
 
 ROOT = Path(__file__).parent.parent
 DEMOS = ROOT / "demos"
@@ -495,6 +495,26 @@ def test_unset_keys() -> None:
     for key in ("a.b", "a.c.d", "s.2.m", "x"):
         with pytest.raises(ScenarioError, match=f"--unset {key}: no key"):
             apply_unsets(data, [key])
+
+
+def test_an_index_in_brackets_is_named_with_its_dotted_form() -> None:
+    """`--set key[0].x=…` and `--unset key[1]` (the index in brackets, as in Python or TOML
+    paths elsewhere): one line giving the key as crane_fem writes it, before the scenario is
+    touched (it had made a key "ground_motion[0]" and a garbled validation message)."""
+    data = {"loading": {"ground_motion": [{"scale": 1.0}, {"scale": 2.0}]}}
+    with pytest.raises(ScenarioError) as e:
+        apply_overrides(data, ["loading.ground_motion[0].scale=3.0"])
+    assert str(e.value) == (
+        "--set loading.ground_motion[0].scale: an array of tables is indexed by a number as a "
+        "key of its own, not in brackets: loading.ground_motion.0.scale"
+    )
+    with pytest.raises(
+        ScenarioError,
+        match=r"--unset loading.ground_motion\[1\]: .*: "
+        r"loading.ground_motion.1$",
+    ):
+        apply_unsets(data, ["loading.ground_motion[1]"])
+    assert data == {"loading": {"ground_motion": [{"scale": 1.0}, {"scale": 2.0}]}}
 
 
 def test_unset_switches_a_synthetic_record_to_a_file(shared_tmp, capsys) -> None:

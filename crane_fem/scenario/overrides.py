@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import tomllib
 from typing import Any
 
@@ -19,6 +20,17 @@ def _parse_value(text: str, key: str) -> Any:
         ) from None
 
 
+def _check_indices(flag: str, key: str) -> None:
+    """Refuse an array index written in brackets (``ground_motion[0]``): crane_fem's keys
+    index an array of tables with a key of its own (``ground_motion.0``)."""
+    if "[" in key or "]" in key:
+        dotted = re.sub(r"\[\s*(\d+)\s*\]", r".\1", key)
+        raise ScenarioError(
+            f"{flag} {key}: an array of tables is indexed by a number as a key of its own, "
+            f"not in brackets: {dotted}"
+        )
+
+
 def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
     """Apply ``key.path=value`` overrides (values parsed as TOML) to a scenario mapping; a
     number in the path indexes an array of tables (``subdomain.1.modes=100``)."""
@@ -27,6 +39,7 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any
             raise ScenarioError(f"--set {item}: expected key.path=value")
         key, text = item.split("=", 1)
         key = key.strip()
+        _check_indices("--set", key)
         parts = key.split(".")
         if not key or any(not p for p in parts):
             raise ScenarioError(f"--set {item}: empty key")
@@ -63,6 +76,7 @@ def apply_unsets(data: dict[str, Any], keys: list[str]) -> dict[str, Any]:
         ScenarioError: a key that is not in the scenario, naming it.
     """
     for key in keys:
+        _check_indices("--unset", key.strip())
         parts = key.strip().split(".")
         if not key.strip() or any(not p for p in parts):
             raise ScenarioError(f"--unset {key}: empty key")
