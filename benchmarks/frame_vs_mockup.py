@@ -243,6 +243,32 @@ def von_mises_rows(frame: dict[str, Any], solid: dict[str, Any]) -> list[list[st
 # ---------------------------------------------------------------------------- report
 
 
+#: The first landing's columns of the stub-sensitivity table, from :func:`wheel_quantities`.
+_LANDING = (
+    "first landing (ms)",
+    "first landing impulse (N s)",
+    "first landing peak (kN)",
+    "first landing duration (ms)",
+    "max uplift (mm)",
+    "peak wheel force (kN)",
+)
+
+
+def _landing_row(label: str, stiffness: str, weight: float, s: dict[str, Any]) -> list[str]:
+    """One run's row of the stub-sensitivity table: its label, stub stiffness, carried
+    weight, wheel 1's first landing, impacts, Δt and wall time."""
+    q = wheel_quantities(s)
+    return [
+        label,
+        stiffness,
+        f"{weight:.1f}",
+        *(_f(q.get(key, [None])[0]) for key in _LANDING),
+        f"{len(s['wheels']['1']['impacts'])}",
+        f"{s['dt']:.3e}",
+        _f(s.get("wall_time_s"), ".1f"),
+    ]
+
+
 def report(
     frame: dict[str, Any],
     solid: dict[str, Any],
@@ -492,41 +518,10 @@ def report(
         runs = [(None, frame), *soft]
         for width, s in runs:
             k = stub_stiffness(FRAME, width)[0]
-            q = wheel_quantities(s)
             _, w, _ = wheel_forces(s)
-            rows.append(
-                [
-                    "scene" if width is None else f"{width:g}",
-                    f"{k:.3e} (×{k / base:.2g})",
-                    f"{w:.1f}",
-                    _f(q.get("first landing (ms)", [None])[0]),
-                    _f(q.get("first landing impulse (N s)", [None])[0]),
-                    _f(q.get("first landing peak (kN)", [None])[0]),
-                    _f(q.get("first landing duration (ms)", [None])[0]),
-                    _f(q.get("max uplift (mm)", [None])[0]),
-                    _f(q.get("peak wheel force (kN)", [None])[0]),
-                    f"{len(s['wheels']['1']['impacts'])}",
-                    f"{s['dt']:.3e}",
-                    _f(s.get("wall_time_s"), ".1f"),
-                ]
-            )
-        q = sq
-        rows.append(
-            [
-                "3D mock-up",
-                NA,
-                f"{sw:.1f}",
-                _f(q.get("first landing (ms)", [None])[0]),
-                _f(q.get("first landing impulse (N s)", [None])[0]),
-                _f(q.get("first landing peak (kN)", [None])[0]),
-                _f(q.get("first landing duration (ms)", [None])[0]),
-                _f(q.get("max uplift (mm)", [None])[0]),
-                _f(q.get("peak wheel force (kN)", [None])[0]),
-                f"{len(solid['wheels']['1']['impacts'])}",
-                f"{solid['dt']:.3e}",
-                _f(solid.get("wall_time_s"), ".1f"),
-            ]
-        )
+            label = "scene" if width is None else f"{width:g}"
+            rows.append(_landing_row(label, f"{k:.3e} (×{k / base:.2g})", w, s))
+        rows.append(_landing_row("3D mock-up", NA, sw, solid))
         lines += _table(
             [
                 "wheel_width (m)",

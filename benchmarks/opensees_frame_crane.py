@@ -1275,18 +1275,21 @@ def part_transient(
         run = run_opensees(ops, fr, knots, end, stepping, k, f, alpha, preload_ties=ties)
         return wheel_results(*run.uniform(), run.static), run
 
+    def time_ours(n: int, out: Path) -> None:
+        """One `crane-fem run` of ours at n elements per zone: its wall, loop and process
+        times and its one-step peak into ``ours[n]`` (the run's files removed after)."""
+        set_args = [a for s in fine_sets(n) for a in ("--set", s)]
+        _, elapsed = run_cli("run", str(scene), "-o", str(out), "--no-progress", *set_args)
+        summary = json.loads((out / "summary.json").read_text())
+        ours[n].wall.append(summary["wall_time_s"])
+        ours[n].loop.append(summary["wall_time_integration_s"])
+        ours[n].process.append(elapsed)
+        ours[n].extra["cli_raw"] = max(w["peak_force_N"] for w in summary["wheels"].values())
+        shutil.rmtree(out, ignore_errors=True)
+
     for rep in range(repeats):
         for n in levels[:-1]:
-            out = tmp / f"ours_{n}_{rep}"
-            set_args = [a for s in fine_sets(n) for a in ("--set", s)]
-            _, elapsed = run_cli("run", str(scene), "-o", str(out), "--no-progress", *set_args)
-            summary = json.loads((out / "summary.json").read_text())
-            ours[n].wall.append(summary["wall_time_s"])
-            ours[n].loop.append(summary["wall_time_integration_s"])
-            ours[n].process.append(elapsed)
-            raw = max(w["peak_force_N"] for w in summary["wheels"].values())
-            ours[n].extra["cli_raw"] = raw
-            shutil.rmtree(out, ignore_errors=True)
+            time_ours(n, tmp / f"ours_{n}_{rep}")
         for st in steppings:
             wheel, run = opensees(st, k_main)
             item = theirs.setdefault(st.label, Timed(f"OpenSees, {st.label}", wheel, run.steps))
@@ -1295,15 +1298,7 @@ def part_transient(
             item.extra["iterations"] = run.iterations / max(1, run.steps)
             item.extra["retries"] = run.retries
     # The reference's own cost, once.
-    out = tmp / "ours_reference"
-    set_args = [a for s in fine_sets(ref_n) for a in ("--set", s)]
-    _, elapsed = run_cli("run", str(scene), "-o", str(out), "--no-progress", *set_args)
-    summary = json.loads((out / "summary.json").read_text())
-    ours[ref_n].wall.append(summary["wall_time_s"])
-    ours[ref_n].loop.append(summary["wall_time_integration_s"])
-    ours[ref_n].process.append(elapsed)
-    ours[ref_n].extra["cli_raw"] = max(w["peak_force_N"] for w in summary["wheels"].values())
-    shutil.rmtree(out, ignore_errors=True)
+    time_ours(ref_n, tmp / "ours_reference")
     sens = []
     for label, k, st, f, ties in others:
         wheel, run = opensees(st, k, f, ties)
