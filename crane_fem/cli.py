@@ -1,5 +1,6 @@
 """The ``crane-fem`` command: ``run``, ``check`` and ``mesh`` a scenario; its ``modes``;
-``plot`` its outputs; ``bench`` the methods."""
+``plot`` its outputs; ``bench`` the methods; a ``study`` over many runs; spectrum-compatible
+``records``."""
 
 from __future__ import annotations
 
@@ -147,6 +148,34 @@ def _parser() -> argparse.ArgumentParser:
     bench.add_argument(
         "--no-results", action="store_true", help="leave benchmarks/RESULTS.md unchanged"
     )
+    study = sub.add_parser(
+        "study",
+        help="a study: one scene over records, positions, directions and its conditioning "
+        "ensemble, on dask.distributed; the envelope tables",
+    )
+    study.add_argument("study", type=Path, help="study TOML file")
+    study.add_argument(
+        "-o", "--output", type=Path, default=None, help="default: out/<study file stem>"
+    )
+    study.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="cases at once on the local cluster (default: one per core)",
+    )
+    study.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="a running dask scheduler (tcp://host:8786) instead of a local cluster",
+    )
+    try:  # TEMPORARY until crane_fem.records lands
+        from crane_fem.records.cli import add_parser as add_records
+
+        add_records(sub)
+    except ModuleNotFoundError:
+        pass
     return parser
 
 
@@ -188,6 +217,20 @@ def main(argv: list[str] | None = None) -> int:
             return _plot(args.outdir) if rank0 else 0
         if args.command == "bench":
             return _bench(args, comm)
+        if args.command in ("study", "records"):
+            if comm.size > 1:
+                raise ScenarioError(
+                    f"crane-fem {args.command} runs in one process (a study's cases run in "
+                    "processes of their own): run it without mpiexec"
+                )
+            if args.command == "records":
+                from crane_fem.records.cli import run as run_records
+
+                return run_records(args)
+            from crane_fem.study import run_study
+
+            code, _ = run_study(args.study, args.output, args.workers, args.scheduler)
+            return code
         mesh_cmd = args.command == "mesh"
         sc = load_scenario(args.scenario, args.overrides, args.unset, read_mesh=not mesh_cmd)
         if mesh_cmd:

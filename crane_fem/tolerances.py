@@ -5,10 +5,12 @@ Per wheel: the largest uplift (10 %, or 0.1 mm), the longest flight (5 %), the f
 landing's impulse (5 %) and peak force (10 %), the run's peak force (10 %), the slip along
 and across its rail (10 %, or 0.5 mm); per flange its peak force (15 %); the bridge's peak
 von Mises stress (5 %) and, in the part where the reference peaks, the run's own peak there
-(5 %: the same part, ties between mirror-symmetric parts allowed); each support's peak force
-and peak vertical force (10 %); the floor response spectra at the measured points (10 % at
-every period computed: they start at 4 sampling intervals). Lift-off counts are reported, not
-bounded (short chatter flights differ by ±3 between explicit runs of ±0.5 % of record).
+(5 %: the same part, ties between mirror-symmetric parts allowed); a frame's or gmsh model's
+peak von Mises stress per group (5 %); each support's peak force and peak vertical force
+(10 %); the floor response spectra at the measured points (10 % at every period computed:
+they start at 4 sampling intervals; a study's envelope takes each spectrum's peak, 10 %).
+Lift-off counts are reported, not bounded (short chatter flights differ by ±3 between explicit
+runs of ±0.5 % of record).
 """
 
 from __future__ import annotations
@@ -23,9 +25,11 @@ import numpy as np
 __all__ = [
     "TOLERANCES",
     "Check",
+    "Quantity",
     "judge_dirs",
     "judge_runs",
     "lift_off_counts",
+    "signoff_quantities",
     "table_lines",
     "worst",
 ]
@@ -42,9 +46,11 @@ TOLERANCES: dict[str, tuple[float, float]] = {
     "flange peak force": (0.15, 0.0),
     "bridge peak von Mises": (0.05, 0.0),
     "bridge peak von Mises in the reference's part": (0.05, 0.0),
+    "group peak von Mises": (0.05, 0.0),
     "support peak force": (0.10, 0.0),
     "support peak vertical force": (0.10, 0.0),
     "floor response spectrum": (0.10, 0.0),
+    "floor response spectrum peak": (0.10, 0.0),
 }
 
 
@@ -98,6 +104,68 @@ def _first_impact(wheel: dict[str, Any]) -> dict[str, float]:
     return impacts[0] if impacts else {"impulse_Ns": 0.0, "peak_force_N": 0.0}
 
 
+@dataclass(frozen=True)
+class Quantity:
+    """One sign-off quantity of one run (SI units): the uplift of a wheel, a support's peak
+    force, the peak of a floor response spectrum."""
+
+    quantity: str
+    where: str
+    value: float
+    unit: str
+    #: What the value was read at beyond ``where`` (a spectrum's peak period).
+    note: str = ""
+
+    @property
+    def key(self) -> str:
+        """``quantity, where``: the quantity's name in a study's tables."""
+        return f"{self.quantity}, {self.where}"
+
+
+def signoff_quantities(
+    summary: dict[str, Any], spectra: tuple[Any, dict[str, Any]] | None = None
+) -> list[Quantity]:
+    """The quantities of :data:`TOLERANCES` one run's ``summary`` gives (per wheel, flange,
+    group, support), and the peak of each of its floor response spectra ((periods, name ->
+    PSA) of ``spectra.csv``; the input's curves left out) when given."""
+    out: list[Quantity] = []
+
+    def add(q: str, where: str, value: float, unit: str, note: str = "") -> None:
+        out.append(Quantity(q, where, float(value), unit, note))
+
+    for k, w in sorted(summary.get("wheels", {}).items()):
+        where = f"wheel {k}"
+        add("max uplift", where, w.get("max_uplift_m", 0.0), "m")
+        add("longest flight", where, _longest_flight(w), "s")
+        fi = _first_impact(w)
+        add("first landing impulse", where, fi["impulse_Ns"], "N s")
+        add("first landing peak force", where, fi["peak_force_N"], "N")
+        add("peak force", where, w.get("peak_force_N", 0.0), "N")
+        for d in ("along", "across"):
+            key = f"max_slip_{d}_m"
+            if key in w:
+                add(f"slip {d}", where, w[key], "m")
+    for name, f in sorted(summary.get("flanges", {}).items()):
+        add("flange peak force", f"flange {name}", f["peak_force_N"], "N")
+    if "peak_bridge_von_mises_Pa" in summary:
+        add("bridge peak von Mises", "bridge", summary["peak_bridge_von_mises_Pa"], "Pa")
+    for group, g in sorted(summary.get("peak_von_mises_by_group", {}).items()):
+        add("group peak von Mises", group, g["peak_Pa"], "Pa")
+    for k, s in sorted(summary.get("supports", {}).items()):
+        where = f"support {k}"
+        add("support peak force", where, s.get("peak_force_N", 0.0), "N")
+        add("support peak vertical force", where, s.get("peak_vertical_N", 0.0), "N")
+    if spectra is not None:
+        periods, curves = spectra
+        for name, c in sorted(curves.items()):
+            if name.startswith("input_"):
+                continue
+            j = int(np.argmax(np.asarray(c)))
+            where = name.replace("_", " ")
+            add("floor response spectrum peak", where, c[j], "m/s²", f"T = {periods[j]:.3g} s")
+    return out
+
+
 def judge_runs(
     run: dict[str, Any],
     ref: dict[str, Any],
@@ -107,45 +175,16 @@ def judge_runs(
     """The checks of criterion (b) of the run with summary ``run`` against the reference's
     ``ref`` (the fully explicit run of the same scene), and of their response spectra
     ((periods, name -> PSA) of ``spectra.csv``) when given. Quantities the reference lacks
-    are left out."""
+    are left out; those the run lacks count as zero."""
+    values = {q.key: q.value for q in signoff_quantities(run)}
     checks: list[Check] = []
-
-    def add(q: str, where: str, value: float, reference: float, unit: str) -> None:
-        checks.append(Check(q, where, float(value), float(reference), unit))
-
-    wheels, ref_wheels = run.get("wheels", {}), ref.get("wheels", {})
-    for k, rw in sorted(ref_wheels.items()):
-        w = wheels.get(k, {})
-        where = f"wheel {k}"
-        add("max uplift", where, w.get("max_uplift_m", 0.0), rw["max_uplift_m"], "m")
-        add("longest flight", where, _longest_flight(w), _longest_flight(rw), "s")
-        fi, rfi = _first_impact(w), _first_impact(rw)
-        add("first landing impulse", where, fi["impulse_Ns"], rfi["impulse_Ns"], "N s")
-        add("first landing peak force", where, fi["peak_force_N"], rfi["peak_force_N"], "N")
-        add("peak force", where, w.get("peak_force_N", 0.0), rw["peak_force_N"], "N")
-        for d in ("along", "across"):
-            key = f"max_slip_{d}_m"
-            if key in rw:
-                add(f"slip {d}", where, w.get(key, 0.0), rw[key], "m")
-    flanges = run.get("flanges", {})
-    for name, rf in sorted(ref.get("flanges", {}).items()):
-        value = flanges.get(name, {}).get("peak_force_N", 0.0)
-        add("flange peak force", f"flange {name}", value, rf["peak_force_N"], "N")
-    if "peak_bridge_von_mises_Pa" in ref:
-        value = run.get("peak_bridge_von_mises_Pa", 0.0)
-        add("bridge peak von Mises", "bridge", value, ref["peak_bridge_von_mises_Pa"], "Pa")
+    for q in signoff_quantities(ref):
+        checks.append(Check(q.quantity, q.where, values.get(q.key, 0.0), q.value, q.unit))
         part = ref.get("peak_bridge_von_mises_part")
-        if part:
+        if q.quantity == "bridge peak von Mises" and part:
             there = run.get("peak_bridge_von_mises_by_part_Pa", {}).get(part, 0.0)
-            q = "bridge peak von Mises in the reference's part"
-            add(q, part, there, ref["peak_bridge_von_mises_Pa"], "Pa")
-    supports = run.get("supports", {})
-    for k, rs in sorted(ref.get("supports", {}).items()):
-        s = supports.get(k, {})
-        where = f"support {k}"
-        add("support peak force", where, s.get("peak_force_N", 0.0), rs["peak_force_N"], "N")
-        value = s.get("peak_vertical_N", 0.0)
-        add("support peak vertical force", where, value, rs["peak_vertical_N"], "N")
+            name = "bridge peak von Mises in the reference's part"
+            checks.append(Check(name, part, float(there), q.value, "Pa"))
     if run_spectra is not None and ref_spectra is not None:
         checks += _spectra_checks(run_spectra, ref_spectra)
     return checks

@@ -1,0 +1,93 @@
+"""Studies over records, positions and directions: ``crane-fem study STUDY.toml``.
+
+One scene, the axes along which it varies (:mod:`.spec`), its cases and their conditioning
+ensembles (:mod:`.cases`), run on dask.distributed (:mod:`.engine`), and the tables an
+engineer signs off (:mod:`.aggregate`): every sign-off quantity in every case, its envelope,
+the codes' combination over records, the governing case and whether the scene resolves it.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+from crane_fem.errors import ScenarioError
+from crane_fem.study.aggregate import StudyTables, tabulate, write_tables
+from crane_fem.study.cases import Case, expand_cases
+from crane_fem.study.engine import CaseResult, cluster, run_cases
+from crane_fem.study.spec import StudySpec, load_study
+
+__all__ = ["Case", "CaseResult", "StudySpec", "StudyTables", "load_study", "run_study"]
+
+
+def _say(line: str) -> None:
+    print(f"crane-fem: {line}", flush=True)
+
+
+def run_study(
+    path: Path, out: Path | None, workers: int | None, scheduler: str | None
+) -> tuple[int, Path]:
+    """Run (or resume) the study ``path`` into ``out`` (default ``out/<study file stem>``)
+    and write its tables; returns the exit code (0 every case completed, 1 some did not)
+    and the study directory.
+
+    Raises:
+        ScenarioError: the study file, its scene, an axis refused for every value, a
+            scheduler that does not answer.
+    """
+    from tqdm import tqdm
+
+    spec, scene, records = load_study(path)
+    cases = expand_cases(spec, scene, records)
+    out = out if out is not None else Path("out") / path.stem
+    root = out / "cases"
+    if out.exists() and not out.is_dir():
+        raise ScenarioError(f"-o {out}: is a file, expected a directory")
+    root.mkdir(parents=True, exist_ok=True)
+    n_workers = workers or os.cpu_count() or 1
+    if n_workers < 1:
+        raise ScenarioError(f"--workers {workers}: expected a positive number")
+    t0 = time.perf_counter()
+    bar = tqdm(total=len(cases), unit="case", desc="study", disable=None)
+    failed: list[CaseResult] = []
+
+    def done(r: CaseResult) -> None:
+        bar.update()
+        if r.status != "completed":
+            failed.append(r)
+            bar.write(f"crane-fem: case {r.name}: {r.status}: {r.error}")
+
+    with cluster(n_workers, scheduler) as client:
+        where = scheduler or f"a local cluster of {n_workers} workers"
+        _say(f"study {path.name}: {len(cases)} cases of {scene.name} on {where}")
+        try:
+            results = run_cases(client, scene, cases, root, done)
+        finally:
+            bar.close()
+    tables = tabulate(root, cases, results)
+    head = {
+        "study": str(path.resolve()),
+        "scene": str(scene),
+        "wall_time_s": time.perf_counter() - t0,
+        "workers": n_workers if scheduler is None else None,
+        "scheduler": scheduler,
+    }
+    paths = write_tables(out, tables, cases, results, head)
+    reused = sum(r.reused for r in results.values())
+    ok = sum(r.status == "completed" for r in results.values())
+    _say(
+        f"study done in {time.perf_counter() - t0:.1f} s: {ok} of {len(cases)} cases "
+        f"completed ({reused} from an earlier run), {len(failed)} not"
+    )
+    beyond = [k for k, q in tables.quantities.items() if q.get("conditioning", {}).get("beyond")]
+    if any("conditioning" in q for q in tables.quantities.values()):
+        _say(
+            f"{len(beyond)} of {len(tables.quantities)} quantities beyond the scene's "
+            "conditioning (the ensemble moves them by more than their tolerance)"
+            + (f": {', '.join(beyond[:6])}{', …' if len(beyond) > 6 else ''}" if beyond else "")
+        )
+    for w in tables.warnings:
+        _say(f"warning: {w}")
+    _say(f"outputs in {out}/ ({', '.join(p.name for p in paths)}; cases/<case>/)")
+    return (0 if not failed else 1), out
