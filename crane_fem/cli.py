@@ -117,7 +117,8 @@ def _parser() -> argparse.ArgumentParser:
     )
     _key_options(modes)
     plot = sub.add_parser(
-        "plot", help="figures of a run directory, or of the runs in its subdirectories"
+        "plot",
+        help="figures of a run directory, of the runs in its subdirectories, or of a study",
     )
     plot.add_argument("outdir", type=Path)
     mesh = sub.add_parser("mesh", help="mesh a crane scenario's geometry to a gmsh .msh file")
@@ -378,6 +379,13 @@ def _bench(args: argparse.Namespace, comm: Any) -> int:
 def _plot(outdir: Path) -> int:
     from crane_fem.compare import describe, write_comparison
     from crane_fem.plotting import plot_figures
+
+    if (outdir / "study.json").is_file():
+        from crane_fem.plotting.study import study_figures
+
+        for p in study_figures(outdir):
+            print(f"crane-fem: wrote {p}")
+        return 0
 
     try:
         figures = plot_figures(outdir)

@@ -8,14 +8,18 @@ the codes' combination over records, the governing case and whether the scene re
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
-from crane_fem.errors import ScenarioError
+from crane_fem.errors import RunInterrupted, ScenarioError
 from crane_fem.study.aggregate import StudyTables, tabulate, write_tables
 from crane_fem.study.cases import Case, expand_cases
-from crane_fem.study.engine import CaseResult, cluster, run_cases
+from crane_fem.study.engine import CaseResult, cluster, run_cases, stop_local_cases
 from crane_fem.study.spec import StudySpec, load_study
 
 __all__ = ["Case", "CaseResult", "StudySpec", "StudyTables", "load_study", "run_study"]
@@ -23,6 +27,20 @@ __all__ = ["Case", "CaseResult", "StudySpec", "StudyTables", "load_study", "run_
 
 def _say(line: str) -> None:
     print(f"crane-fem: {line}", flush=True)
+
+
+@contextlib.contextmanager
+def _sigterm_as_interrupt() -> Iterator[None]:
+    """SIGTERM (a batch system's time limit) stops the study as Ctrl-C does."""
+
+    def handler(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt("SIGTERM")
+
+    old = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, old)
 
 
 def run_study(
@@ -52,19 +70,36 @@ def run_study(
     bar = tqdm(total=len(cases), unit="case", desc="study", disable=None)
     failed: list[CaseResult] = []
 
+    finished: list[str] = []
+
     def done(r: CaseResult) -> None:
+        finished.append(r.name)
         bar.update()
         if r.status != "completed":
             failed.append(r)
             bar.write(f"crane-fem: case {r.name}: {r.status}: {r.error}")
 
-    with cluster(n_workers, scheduler) as client:
-        where = scheduler or f"a local cluster of {n_workers} workers"
-        _say(f"study {path.name}: {len(cases)} cases of {scene.name} on {where}")
-        try:
-            results = run_cases(client, scene, cases, root, done)
-        finally:
-            bar.close()
+    try:
+        with _sigterm_as_interrupt(), cluster(n_workers, scheduler) as client:
+            where = scheduler or f"a local cluster of {n_workers} workers"
+            _say(f"study {path.name}: {len(cases)} cases of {scene.name} on {where}")
+            try:
+                results = run_cases(client, scene, cases, root, done)
+            except KeyboardInterrupt:
+                # No SIGTERM handler while the cases are stopped and the cluster closes.
+                signal.signal(signal.SIGTERM, signal.SIG_IGN)
+                stop_local_cases()
+                raise
+    except KeyboardInterrupt as exc:
+        # The cases' processes end with the workers' threads (interrupted runs, flushed;
+        # their checkpoints kept): the same command resumes.
+        how = "SIGTERM" if str(exc) == "SIGTERM" else "SIGINT"
+        raise RunInterrupted(
+            f"study interrupted by {how}: {len(finished)} of {len(cases)} cases finished "
+            f"in {root}/; run the same command again to finish the others"
+        ) from None
+    finally:
+        bar.close()
     tables = tabulate(root, cases, results)
     head = {
         "study": str(path.resolve()),

@@ -32,7 +32,14 @@ from crane_fem.study.cases import Case
 from crane_fem.study.engine import CaseResult
 from crane_fem.tolerances import TOLERANCES, Check, Quantity, signoff_quantities
 
-__all__ = ["MEAN_RECORDS", "MIN_RECORDS", "StudyTables", "code_combination", "tabulate"]
+__all__ = [
+    "MEAN_RECORDS",
+    "MIN_RECORDS",
+    "StudyTables",
+    "case_quantities",
+    "code_combination",
+    "tabulate",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -52,7 +59,11 @@ class StudyTables:
     warnings: list[str] = field(default_factory=list)
 
 
-def _read(outdir: Path) -> tuple[list[Quantity], tuple[FloatArray, dict[str, Any]] | None]:
+def case_quantities(
+    outdir: Path,
+) -> tuple[list[Quantity], tuple[FloatArray, dict[str, Any]] | None]:
+    """A run directory's sign-off quantities (``summary.json``, and the peaks of
+    ``spectra.csv`` when there is one) and its spectra."""
     summary = json.loads((outdir / "summary.json").read_text())
     path = outdir / "spectra.csv"
     spectra = read_spectra_csv(path) if path.exists() else None
@@ -117,7 +128,7 @@ def tabulate(root: Path, cases: list[Case], results: dict[str, CaseResult]) -> S
     for c in cases:
         if results.get(c.name, CaseResult(c.name, "failed")).status != "completed":
             continue
-        qs, sp = _read(root / c.name)
+        qs, sp = case_quantities(root / c.name)
         per_case[c.name] = {q.key: q for q in qs}
         if sp is not None and c.nominal:
             spectra[c.name] = sp

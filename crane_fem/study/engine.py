@@ -20,6 +20,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass
@@ -29,13 +30,18 @@ from typing import Any
 from crane_fem.errors import ScenarioError
 from crane_fem.study.cases import Case, cli_arguments
 
-__all__ = ["CaseResult", "case_state", "cluster", "run_cases"]
+__all__ = ["CaseResult", "case_state", "cluster", "run_cases", "stop_local_cases"]
 
 #: Environment variables of an MPI launcher that a case's own process must not inherit
 #: (the study may itself run under a launcher's environment).
 _LAUNCHER_PREFIXES = ("PMI_", "PMIX_", "HYDRA_", "MPIR_", "OMPI_", "I_MPI_")
 #: Seconds to wait for ``--scheduler ADDRESS`` to answer.
 CONNECT_TIMEOUT_S = 10.0
+#: The cases' processes this process started and waits on (local workers).
+_LIVE: set[subprocess.Popen[str]] = set()
+_LIVE_LOCK = threading.Lock()
+#: Set when the study is interrupted: a local worker then starts no other case.
+_STOP = threading.Event()
 
 
 @dataclass
@@ -114,6 +120,8 @@ def run_case(
     state = case_state(out, st)
     if state == "done":
         return CaseResult(name, "completed", sampling_s=_sampling(out), reused=True)
+    if _STOP.is_set():
+        return CaseResult(name, "interrupted", "the study was interrupted before it started")
     out.mkdir(parents=True, exist_ok=True)
     cmd = [sys.executable, "-m", "crane_fem.cli", "run", scene, "-o", str(out), "--no-progress"]
     cmd += cli_arguments(st)
@@ -131,18 +139,40 @@ def run_case(
             env=_environment(),
             preexec_fn=_bind_to_parent,
         )
+        with _LIVE_LOCK:
+            _LIVE.add(proc)
+            if _STOP.is_set():
+                proc.terminate()
         try:
             _, stderr = proc.communicate()
         except BaseException:
             proc.terminate()
             proc.wait()
             raise
+        finally:
+            with _LIVE_LOCK:
+                _LIVE.discard(proc)
         log.write(stderr)
     wall = time.perf_counter() - t0
     if proc.returncode == 0:
         return CaseResult(name, "completed", wall_s=wall, sampling_s=_sampling(out))
     status = {3: "unstable", 130: "interrupted", 143: "interrupted"}.get(proc.returncode, "failed")
     return CaseResult(name, status, _error_line(stderr, proc.returncode), wall)
+
+
+def stop_local_cases() -> None:
+    """SIGTERM every case's process this process started: each stops at its next macro step
+    as an interrupted run (outputs flushed, checkpoints kept); waits for them. The local
+    workers start no other case."""
+    with _LIVE_LOCK:
+        _STOP.set()
+        procs = list(_LIVE)
+    for p in procs:
+        with contextlib.suppress(OSError):
+            p.terminate()
+    for p in procs:
+        with contextlib.suppress(OSError, subprocess.TimeoutExpired):
+            p.wait(timeout=60)
 
 
 @contextlib.contextmanager
@@ -159,6 +189,7 @@ def cluster(workers: int, scheduler: str | None) -> Iterator[Any]:
     from distributed import Client, LocalCluster
 
     logging.getLogger("distributed").setLevel(logging.ERROR)
+    _STOP.clear()
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
