@@ -121,6 +121,15 @@ def _parser() -> argparse.ArgumentParser:
         help="figures of a run directory, of the runs in its subdirectories, or of a study",
     )
     plot.add_argument("outdir", type=Path)
+    plot.add_argument(
+        "--ensemble",
+        type=Path,
+        action="append",
+        default=[],
+        metavar="DIR",
+        help="the explicit ensemble's runs (record × (1 ± ε), Δt × ½; a run directory or a "
+        "directory of runs): criterion (b) by max(tolerance, their spread)",
+    )
     mesh = sub.add_parser("mesh", help="mesh a crane scenario's geometry to a gmsh .msh file")
     mesh.add_argument("scenario", type=Path)
     mesh.add_argument(
@@ -215,7 +224,7 @@ def main(argv: list[str] | None = None) -> int:
                 f"{comm.size} process{'es' if comm.size > 1 else ''}; use {venv_mpiexec()}"
             )
         if args.command == "plot":
-            return _plot(args.outdir) if rank0 else 0
+            return _plot(args.outdir, args.ensemble) if rank0 else 0
         if args.command == "bench":
             return _bench(args, comm)
         if args.command in ("study", "records"):
@@ -376,7 +385,7 @@ def _bench(args: argparse.Namespace, comm: Any) -> int:
     return 0
 
 
-def _plot(outdir: Path) -> int:
+def _plot(outdir: Path, ensemble: list[Path]) -> int:
     from crane_fem.compare import describe, write_comparison
     from crane_fem.plotting import plot_figures
 
@@ -389,7 +398,7 @@ def _plot(outdir: Path) -> int:
 
     try:
         figures = plot_figures(outdir)
-        compared = write_comparison(outdir)
+        compared = write_comparison(outdir, ensemble)
     except (FileNotFoundError, ValueError) as exc:
         _error(exc)
         return 2

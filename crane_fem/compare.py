@@ -30,7 +30,7 @@ from crane_fem.peaks import LIFT_GAP, LIFT_HEIGHT
 from crane_fem.plotting import Run, load_runs
 from crane_fem.scenario import COUPLED_METHODS
 from crane_fem.spectra import read_spectra_csv
-from crane_fem.tolerances import Check, judge_runs
+from crane_fem.tolerances import Check, judge_runs, with_spread
 from crane_fem.tolerances import worst as worst_check
 
 __all__ = [
@@ -101,8 +101,13 @@ def first_landing(run: Run, lift_gap: float = LIFT_GAP) -> float | None:
     return max(ends) if ends else None
 
 
-def compare_runs(het: Run, exp: Run, lift_gap: float = LIFT_GAP) -> dict[str, Any]:
-    """The comparison numbers (see the module docstring) of a coupled and an explicit run."""
+def compare_runs(
+    het: Run, exp: Run, lift_gap: float = LIFT_GAP, members: list[Run] | None = None
+) -> dict[str, Any]:
+    """The comparison numbers (see the module docstring) of a coupled and an explicit run;
+    with the explicit ensemble's ``members`` (the scene's explicit runs with the record
+    × (1 ± ε), Δt × ½), criterion (b) judges each quantity by max(tolerance, their spread)
+    and says which are beyond the scene's conditioning."""
     t = het.history["t"]
     te = exp.history["t"]
     t_land = first_landing(exp, lift_gap)
@@ -155,6 +160,9 @@ def compare_runs(het: Run, exp: Run, lift_gap: float = LIFT_GAP) -> dict[str, An
     out["lift_gap_m"] = lift_gap
     out["lift_height_m"] = LIFT_HEIGHT
     checks = _tolerance_checks(het, exp)
+    if members:
+        checks = with_spread(checks, [_tolerance_checks(m, exp) for m in members])
+        out["ensemble"] = [str(m.path) for m in members]
     out["tolerances"] = [
         {
             "quantity": c.quantity,
@@ -164,6 +172,8 @@ def compare_runs(het: Run, exp: Run, lift_gap: float = LIFT_GAP) -> dict[str, An
             "explicit": c.reference,
             "unit": c.unit,
             "tolerance": c.rule,
+            "ensemble_spread": c.spread,
+            "beyond_conditioning": c.beyond_conditioning,
             "error_over_tolerance": c.ratio,
             "within": c.ok,
         }
@@ -172,6 +182,7 @@ def compare_runs(het: Run, exp: Run, lift_gap: float = LIFT_GAP) -> dict[str, An
     top = worst_check(checks)
     out["worst_error_over_tolerance"] = top.ratio if top is not None else 0.0
     out["quantities_out_of_tolerance"] = sum(not c.ok for c in checks)
+    out["quantities_beyond_conditioning"] = sum(c.beyond_conditioning for c in checks)
     return out
 
 
@@ -184,15 +195,19 @@ def _tolerance_checks(het: Run, exp: Run) -> list[Check]:
     return judge_runs(het.summary, exp.summary)
 
 
-def write_comparison(outdir: Path) -> tuple[Path, dict[str, Any]] | None:
-    """Compare the coupled and the monolithic run found under ``outdir``; write
-    ``comparison.json`` there. None unless there is one run of each."""
+def write_comparison(
+    outdir: Path, ensemble: list[Path] | None = None
+) -> tuple[Path, dict[str, Any]] | None:
+    """Compare the coupled and the monolithic run found under ``outdir``, with the explicit
+    ensemble's runs found under each of ``ensemble`` (run directories or directories of
+    runs); write ``comparison.json`` there. None unless there is one run of each."""
     runs = load_runs(outdir)
     het = [r for r in runs if r.summary.get("method") in COUPLED_METHODS]
     exp = [r for r in runs if r.summary.get("method") == "monolithic"]
     if len(het) != 1 or len(exp) != 1:
         return None
-    result = compare_runs(het[0], exp[0])
+    members = [m for d in ensemble or [] for m in load_runs(d)]
+    result = compare_runs(het[0], exp[0], members=members)
     path = outdir / "comparison.json"
     path.write_text(json.dumps(result, indent=2, sort_keys=True))
     return path, result
@@ -232,6 +247,18 @@ def describe(result: dict[str, Any]) -> list[str]:
                 f"; out: {t['quantity']}, {t['where']} ({t['error_over_tolerance']:.2f})"
                 for t in out_q[:5]
             )
+        )
+    if "ensemble" in result:
+        beyond = [t for t in result["tolerances"] if t["beyond_conditioning"]]
+        lines.append(
+            f"judged by max(tolerance, the spread of {len(result['ensemble'])} explicit "
+            f"ensemble runs): {len(beyond)} quantities beyond the scene's conditioning"
+            + (
+                ": " + "; ".join(f"{t['quantity']}, {t['where']}" for t in beyond[:6])
+                if beyond
+                else ""
+            )
+            + (", …" if len(beyond) > 6 else "")
         )
     if "time_loop_ratio_explicit_over_heterogeneous" in result:
         lt = result["time_loop_s"]

@@ -31,6 +31,7 @@ __all__ = [
     "lift_off_counts",
     "signoff_quantities",
     "table_lines",
+    "with_spread",
     "worst",
 ]
 
@@ -65,20 +66,34 @@ class Check:
     unit: str
     #: What the check was read at beyond ``where`` (a spectrum's worst period).
     note: str = ""
+    #: The explicit ensemble's spread: its members' largest |member − reference| (0 without
+    #: an ensemble). THEORY.md §8: each quantity is judged against max(tolerance, spread).
+    spread: float = 0.0
 
     @property
     def tolerance(self) -> float:
-        """The allowed |value − reference|."""
+        """The engineering tolerance on |value − reference|."""
         rel, floor = TOLERANCES[self.quantity]
         return max(rel * abs(self.reference), floor)
 
     @property
+    def allowance(self) -> float:
+        """The allowed |value − reference|: max(tolerance, the ensemble's spread)."""
+        return max(self.tolerance, self.spread)
+
+    @property
+    def beyond_conditioning(self) -> bool:
+        """The ensemble moves the quantity by more than its tolerance: the scene does not
+        resolve it at that tolerance, and no single run signs it off."""
+        return self.spread > self.tolerance
+
+    @property
     def ratio(self) -> float:
-        """|value − reference| / tolerance (0 when equal; inf against a zero tolerance)."""
+        """|value − reference| / allowance (0 when equal; inf against a zero allowance)."""
         dev = abs(self.value - self.reference)
         if dev == 0.0:
             return 0.0
-        tol = self.tolerance
+        tol = self.allowance
         return dev / tol if tol > 0.0 else math.inf
 
     @property
@@ -91,6 +106,8 @@ class Check:
         text = f"{100 * rel:g} %"
         if floor > 0.0:
             text += f" (or {1e3 * floor:g} mm)"
+        if self.beyond_conditioning:
+            text += f"; ensemble spread {_fmt(self.spread, self.unit)}"
         return text
 
 
@@ -209,6 +226,19 @@ def _spectra_checks(
         where, note = name.replace("_", " "), f"T = {periods[j]:.3g} s"
         out.append(Check("floor response spectrum", where, float(a[j]), float(b[j]), "m/s²", note))
     return out
+
+
+def with_spread(checks: list[Check], members: list[list[Check]]) -> list[Check]:
+    """``checks`` with each quantity's spread over the explicit ensemble's ``members`` (each
+    judged against the same reference by :func:`judge_runs`)."""
+    from dataclasses import replace
+
+    spread: dict[tuple[str, str], float] = {}
+    for m in members:
+        for c in m:
+            key = (c.quantity, c.where)
+            spread[key] = max(spread.get(key, 0.0), abs(c.value - c.reference))
+    return [replace(c, spread=spread.get((c.quantity, c.where), 0.0)) for c in checks]
 
 
 def lift_off_counts(run: dict[str, Any], ref: dict[str, Any]) -> dict[str, tuple[int, int]]:

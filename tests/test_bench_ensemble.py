@@ -131,3 +131,28 @@ def test_explicit_member_scales_every_component() -> None:
     scales = [s[f"loading.ground_motion.{i}.scale"] for i in range(3)]
     assert scales == pytest.approx([2.5 * 1.005, 2.5 * 1.005, 8.0 * 1.005], rel=1e-15)
     assert s["coupling.method"] == "monolithic"
+
+
+def test_the_ensemble_spread_widens_the_allowance() -> None:
+    """max(tolerance, spread): a quantity the ensemble moves by more than its tolerance is
+    beyond conditioning and judged against the spread; others keep their tolerance."""
+    from crane_fem.tolerances import with_spread
+
+    run = [
+        Check("peak force", "wheel 1", 130.0, 100.0, "N"),
+        Check("peak force", "wheel 2", 108.0, 100.0, "N"),
+    ]
+    members = [
+        [
+            Check("peak force", "wheel 1", 75.0, 100.0, "N"),
+            Check("peak force", "wheel 2", 103.0, 100.0, "N"),
+        ],
+        [Check("peak force", "wheel 1", 110.0, 100.0, "N")],
+    ]
+    assert [c.ok for c in run] == [False, True]
+    judged = with_spread(run, members)
+    assert [c.spread for c in judged] == [25.0, 3.0]
+    assert [c.beyond_conditioning for c in judged] == [True, False]
+    assert judged[0].allowance == 25.0 and judged[0].ratio == 30.0 / 25.0
+    assert judged[1].allowance == 10.0 and judged[1].ratio == 8.0 / 10.0
+    assert "ensemble spread 0.025 kN" in judged[0].rule

@@ -474,3 +474,22 @@ def test_interface_operator_keys_need_a_solved_interface(capsys) -> None:
     assert main(["check", str(QUICK), *sets]) == 2
     err = capsys.readouterr().err.strip()
     assert "coupling.interface_precision applies to methods gc, gc-mean, hybrid" in err, err
+
+
+@pytest.mark.serial
+def test_plot_judges_by_the_ensemble_spread(quick_runs, capsys) -> None:
+    """``crane-fem plot --ensemble``: criterion (b) by max(tolerance, the members' spread).
+    With the heterogeneous run itself given as the one member, every quantity's spread is its
+    own error: all within, and beyond the conditioning exactly those out of tolerance
+    without the ensemble."""
+    before = json.loads((quick_runs / "comparison.json").read_text())
+    assert main(["plot", str(quick_runs), "--ensemble", str(quick_runs / "heterogeneous")]) == 0
+    out = capsys.readouterr().out
+    after = json.loads((quick_runs / "comparison.json").read_text())
+    assert after["ensemble"] == [str(quick_runs / "heterogeneous")]
+    assert all(t["within"] for t in after["tolerances"])
+    out_before = {(t["quantity"], t["where"]) for t in before["tolerances"] if not t["within"]}
+    beyond = {(t["quantity"], t["where"]) for t in after["tolerances"] if t["beyond_conditioning"]}
+    assert beyond == out_before
+    assert f"{len(beyond)} quantities beyond the scene's conditioning" in out
+    assert main(["plot", str(quick_runs)]) == 0  # comparison.json as the other tests read it

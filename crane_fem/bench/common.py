@@ -62,18 +62,14 @@ def explicit_settings(
         [f"{k}={toml_value(v)}" for k, v in (base or {}).items() if v is not None],
         [k for k, v in (base or {}).items() if v is None],
     )
+    from crane_fem.study.cases import halved_step, scaled_record
+
     out: dict[str, Any] = {**(base or {}), "coupling.method": "monolithic", "output.xdmf": False}
     if scale != 1.0:
-        gm = sc.loading.ground_motion
-        assert gm is not None
-        if isinstance(gm, list):  # components: each scaled (one record scaled as a whole)
-            for i, c in enumerate(gm):
-                out[f"loading.ground_motion.{i}.scale"] = c.scale * scale
-        else:
-            out["loading.ground_motion.scale"] = gm.scale * scale
+        out.update(scaled_record(sc, scale))
     if dt != 1.0:
-        assert sc.time.dt_factor is not None
-        out["time.dt_factor"] = sc.time.dt_factor * dt
+        assert dt == 0.5, "the ensemble halves Δt"
+        out.update(halved_step(sc))
     if sampling is not None:
         out["output.sample_interval"] = sampling
     return out

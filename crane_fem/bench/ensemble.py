@@ -18,6 +18,7 @@ far the scene itself moves.
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -29,7 +30,15 @@ import numpy.typing as npt
 from mpi4py import MPI
 
 from crane_fem.bench import Section
-from crane_fem.bench.common import Outcome, demo, explicit_settings, run_case, write_csv
+from crane_fem.bench.common import (
+    Outcome,
+    demo,
+    explicit_settings,
+    run_case,
+    toml_value,
+    write_csv,
+)
+from crane_fem.scenario import load_scenario
 from crane_fem.spectra import read_spectra_csv
 from crane_fem.tolerances import Check, judge_runs, lift_off_counts
 
@@ -54,12 +63,9 @@ SUMMARY = "the crane scenes by THEORY.md §8: engineering tolerances against the
 
 #: Criterion (a): pair L2 through the first landing and its bounce.
 PAIR_L2_LIMIT = 0.02
-#: The explicit ensemble beyond the reference: (label, record scale factor, Δt factor).
-MEMBERS = [
-    ("explicit, record × 0.995", 0.995, 1.0),
-    ("explicit, record × 1.005", 1.005, 1.0),
-    ("explicit, Δt × ½", 1.0, 0.5),
-]
+#: The explicit ensemble beyond the reference: the record × (1 ± EPSILON) and Δt × ½
+#: (crane_fem.study.cases.ensemble_members, the study's).
+EPSILON = 0.005
 #: Bands of criterion (c), as fractions of the sampling's Nyquist frequency.
 BANDS = [(0.0, 0.125), (0.125, 0.25), (0.25, 0.5), (0.5, 1.0)]
 
@@ -200,7 +206,12 @@ def _present(path: Path, settings: dict[str, Any]) -> dict[str, Any]:
 
 
 def _member_runs(scene: Scene, runs: Path) -> tuple[Outcome, list[Outcome]]:
-    """The fully explicit reference and the other members (collective)."""
+    """The fully explicit reference (in this process, timed alone) and the explicit
+    ensemble's members (run as a study's are: crane_fem.study.run_ensemble_members)
+    (collective)."""
+    from crane_fem.io import read_history
+    from crane_fem.study import run_ensemble_members
+
     path = demo(scene.name)
     stem = scene.label.replace(" ", "_").replace(",", "").replace("×", "x")
     base = {**scene.settings}
@@ -209,13 +220,31 @@ def _member_runs(scene: Scene, runs: Path) -> tuple[Outcome, list[Outcome]]:
     if not ref.stable:
         raise RuntimeError(f"{scene.label}: the explicit reference is {ref.status}")
     sampling = float(ref.summary["sampling_interval_s"])
+    comm = MPI.COMM_WORLD
+    done = None
+    if comm.rank == 0:
+        done = run_ensemble_members(
+            path, ref_settings, sampling, runs / stem / "ensemble", EPSILON, dt=True
+        )
+    done = comm.bcast(done, root=0)
     members = []
-    for i, (label, s, d) in enumerate(MEMBERS):
-        settings = explicit_settings(path, s, d, sampling if d != 1.0 else None, base)
-        members.append(run_case(label, path, settings, runs / stem / f"member{i + 1}"))
-    bad = [m.label for m in members if not m.stable]
-    if bad:
-        raise RuntimeError(f"{scene.label}: explicit ensemble run(s) {bad} did not complete")
+    for label, outdir, result in done:
+        if result.status not in ("completed", "unstable"):
+            raise RuntimeError(f"{scene.label}: explicit ensemble run {label}: {result.error}")
+        settings = json.loads((outdir / "case.json").read_text())["settings"]
+        sc = load_scenario(path, [f"{k}={toml_value(v)}" for k, v in settings.items()])
+        summary = json.loads((outdir / "summary.json").read_text())
+        members.append(
+            Outcome(
+                f"explicit, {label}",
+                sc,
+                outdir,
+                result.status,
+                summary,
+                read_history(outdir / "history.csv"),
+                result.error,
+            )
+        )
     return ref, members
 
 

@@ -18,11 +18,19 @@ from typing import Any
 
 from crane_fem.errors import RunInterrupted, ScenarioError
 from crane_fem.study.aggregate import StudyTables, tabulate, write_tables
-from crane_fem.study.cases import Case, expand_cases
+from crane_fem.study.cases import Case, ensemble_members, expand_cases, load_case
 from crane_fem.study.engine import CaseResult, cluster, run_cases, stop_local_cases
 from crane_fem.study.spec import StudySpec, load_study
 
-__all__ = ["Case", "CaseResult", "StudySpec", "StudyTables", "load_study", "run_study"]
+__all__ = [
+    "Case",
+    "CaseResult",
+    "StudySpec",
+    "StudyTables",
+    "load_study",
+    "run_ensemble_members",
+    "run_study",
+]
 
 
 def _say(line: str) -> None:
@@ -126,3 +134,35 @@ def run_study(
         _say(f"warning: {w}")
     _say(f"outputs in {out}/ ({', '.join(p.name for p in paths)}; cases/<case>/)")
     return (0 if not failed else 1), out
+
+
+def run_ensemble_members(
+    scene: Path,
+    settings: dict[str, Any],
+    sampling: float,
+    root: Path,
+    epsilon: float = 0.005,
+    dt: bool = True,
+    workers: int | None = None,
+) -> list[tuple[str, Path, CaseResult]]:
+    """The conditioning ensemble of the run of ``scene`` with ``settings`` (sampled every
+    ``sampling`` seconds), run as a study's members are, on a local cluster, into
+    ``root/<member>/``: (label, directory, result) of each. ``crane-fem bench ensemble``'s
+    members (its reference, timed, runs alone in its own process)."""
+    sc = load_case(scene, settings)
+    cases = [
+        Case(
+            suffix,
+            {
+                **settings,
+                **extra,
+                **({"output.sample_interval": sampling} if "Δt" in label else {}),
+            },
+            "reference",
+            member=label,
+        )
+        for suffix, label, extra in ensemble_members(sc, epsilon, dt)
+    ]
+    with cluster(workers or os.cpu_count() or 1, None) as client:
+        results = run_cases(client, scene, cases, root)
+    return [(c.member, root / c.name, results[c.name]) for c in cases]

@@ -21,7 +21,16 @@ from crane_fem.scenario import Scenario, load_scenario
 from crane_fem.scenario.model import MESH_KEYS
 from crane_fem.study.spec import StudySpec
 
-__all__ = ["Case", "cli_arguments", "expand_cases", "toml_literal"]
+__all__ = [
+    "Case",
+    "cli_arguments",
+    "ensemble_members",
+    "expand_cases",
+    "halved_step",
+    "load_case",
+    "scaled_record",
+    "toml_literal",
+]
 
 #: Settings of a case: key -> value (None: the key is removed).
 Settings = dict[str, Any]
@@ -76,7 +85,9 @@ def _split(settings: Settings) -> tuple[list[str], list[str]]:
     return sets, [k for k, v in settings.items() if v is None]
 
 
-def _load(scene: Path, settings: Settings) -> Scenario:
+def load_case(scene: Path, settings: Settings) -> Scenario:
+    """The scenario of one case (validated as ``crane-fem check`` reads it, without the
+    mesh)."""
     sets, unsets = _split(settings)
     return load_scenario(scene, sets, unsets, read_mesh=False)
 
@@ -118,28 +129,38 @@ def _rotated(sc: Scenario, degrees: float) -> Settings:
     return out
 
 
-def _members(sc: Scenario, epsilon: float, dt: bool) -> list[tuple[str, str, Settings]]:
-    """The conditioning ensemble of one case: (name suffix, label, settings)."""
+def scaled_record(sc: Scenario, factor: float) -> Settings:
+    """The settings that scale ``sc``'s ground motion by ``factor`` (each component of a
+    multi-component record; a single record as a whole)."""
     gm = sc.loading.ground_motion
     if gm is None:
         raise ScenarioError("perturb: the scene has no loading.ground_motion to scale")
-    out: list[tuple[str, str, Settings]] = []
-    for f in (1.0 - epsilon, 1.0 + epsilon):
-        if isinstance(gm, list):
-            st = {f"loading.ground_motion.{i}.scale": c.scale * f for i, c in enumerate(gm)}
-        else:
-            st = {"loading.ground_motion.scale": gm.scale * f}
-        out.append((f"x{f:.6g}", f"record × {f:.6g}", st))
+    if isinstance(gm, list):
+        return {f"loading.ground_motion.{i}.scale": c.scale * factor for i, c in enumerate(gm)}
+    return {"loading.ground_motion.scale": gm.scale * factor}
+
+
+def halved_step(sc: Scenario) -> Settings:
+    """The settings that halve ``sc``'s time step (its ``dt_factor``, its ``dt``, or the
+    default factor 0.9)."""
+    t = sc.time
+    if t.dt_factor is not None:
+        return {"time.dt_factor": t.dt_factor * 0.5}
+    if t.dt is not None:
+        return {"time.dt": t.dt * 0.5}
+    return {"time.dt_factor": 0.45}
+
+
+def ensemble_members(sc: Scenario, epsilon: float, dt: bool) -> list[tuple[str, str, Settings]]:
+    """The conditioning ensemble of one run (THEORY.md §8): (name suffix, label, settings)
+    of the record × (1 − ε), × (1 + ε) and, when ``dt``, Δt × ½ (to be sampled at the
+    nominal run's instants). The study's and ``crane-fem bench ensemble``'s members."""
+    out = [
+        (f"x{f:.6g}", f"record × {f:.6g}", scaled_record(sc, f))
+        for f in (1.0 - epsilon, 1.0 + epsilon)
+    ]
     if dt:
-        t = sc.time
-        st = (
-            {"time.dt_factor": t.dt_factor * 0.5}
-            if t.dt_factor is not None
-            else {"time.dt": t.dt * 0.5}
-            if t.dt is not None
-            else {"time.dt_factor": 0.45}
-        )
-        out.append(("dt0.5", "Δt × ½", st))
+        out.append(("dt0.5", "Δt × ½", halved_step(sc)))
     return out
 
 
@@ -195,10 +216,10 @@ def expand_cases(
     for name, st, labels, angle in nominal:
         settings: Settings = {**common, **st}
         try:
-            sc = _load(scene, settings)
+            sc = load_case(scene, settings)
             if angle is not None:
                 settings.update(_rotated(sc, angle))
-                sc = _load(scene, settings)
+                sc = load_case(scene, settings)
         except ScenarioError as exc:
             cases.append(Case(name, settings, name, labels=labels, error=str(exc)))
             for a in spec.axis:
@@ -207,7 +228,7 @@ def expand_cases(
             continue
         cases.append(Case(name, settings, name, labels=labels))
         if spec.perturb is not None:
-            for suffix, label, extra in _members(sc, spec.perturb.epsilon, spec.perturb.dt):
+            for suffix, label, extra in ensemble_members(sc, spec.perturb.epsilon, spec.perturb.dt):
                 cases.append(
                     Case(
                         f"{name}__{suffix}",
