@@ -180,12 +180,9 @@ def _parser() -> argparse.ArgumentParser:
         metavar="ADDRESS",
         help="a running dask scheduler (tcp://host:8786) instead of a local cluster",
     )
-    try:  # TEMPORARY until crane_fem.records lands
-        from crane_fem.records.cli import add_parser as add_records
+    from crane_fem.records.cli import add_parser as add_records
 
-        add_records(sub)
-    except ModuleNotFoundError:
-        pass
+    add_records(sub)
     return parser
 
 
