@@ -338,3 +338,21 @@ def test_seed_length_rule() -> None:
     check_seed_length(seed, seed.duration / 3.0)
     with pytest.raises(ScenarioError, match="shorter than 3 ×"):
         check_seed_length(seed, seed.duration / 3.0 * (1 + 1e-9))
+
+
+def test_ec8_vertical_spectrum_by_hand() -> None:
+    """EN 1998-1 §3.2.2.3, type 1 (a_vg = 0.90 a_g, T_B 0.05, T_C 0.15, T_D 1.0 s), 5 %
+    (η = 1): a_vg (1 + 2 T/T_B) below T_B, 3 a_vg on the plateau, 3 a_vg T_C/T, then
+    3 a_vg T_C T_D/T²; the ground type plays no part."""
+    ag = 0.3 * G
+    avg = 0.9 * ag
+    periods = [0.0, 0.025, 0.05, 0.1, 0.15, 0.5, 1.0, 2.0]
+    expected = [avg, 2.0 * avg, 3 * avg, 3 * avg, 3 * avg, 0.9 * avg, 0.45 * avg, 0.1125 * avg]
+    target = parse_target("ec8:type=1,ag=0.3g,direction=vertical", 0.05)
+    np.testing.assert_allclose(target.psa(periods), expected, rtol=1e-14, atol=0)
+    assert np.array_equal(
+        ec8_spectrum(periods, 1, ag, "D", 0.05, vertical=True), target.psa(periods)
+    )
+    assert "vertical" in target.label
+    with pytest.raises(ScenarioError, match="direction must be horizontal or vertical"):
+        parse_target("ec8:type=1,ag=0.3g,direction=up", 0.05)

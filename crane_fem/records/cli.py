@@ -28,6 +28,9 @@ TARGET is either
   ec8:type=T,ag=A,soil=S   EN 1998-1 elastic horizontal spectrum: T = 1 or 2, A = a_g in m/s2
                            or in g with a 'g' suffix (0.3g), S = ground type A..E; its
                            damping correction eta from --damping
+  ec8:type=T,ag=A,direction=vertical
+                           EN 1998-1 §3.2.2.3 elastic vertical spectrum (a_vg/a_g, T_B, T_C,
+                           T_D of Table 3.4; no ground type)
   FILE.csv                 rows 'period (s), PSA (m/s2)', periods increasing, header allowed;
                            a run's spectra.csv (several columns) with --column NAME
 

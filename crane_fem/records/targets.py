@@ -31,6 +31,7 @@ from crane_fem.spectra import G
 __all__ = [
     "EC8_GROUND",
     "EC8_T_MAX",
+    "EC8_VERTICAL",
     "Ec8Target",
     "TableTarget",
     "Target",
@@ -58,6 +59,12 @@ EC8_GROUND: dict[int, dict[str, tuple[float, float, float, float]]] = {
         "D": (1.8, 0.10, 0.30, 1.2),
         "E": (1.6, 0.05, 0.25, 1.2),
     },
+}
+#: EN 1998-1 Table 3.4 (recommended values), the vertical spectrum: type -> (a_vg/a_g, T_B s,
+#: T_C s, T_D s).
+EC8_VERTICAL: dict[int, tuple[float, float, float, float]] = {
+    1: (0.90, 0.05, 0.15, 1.0),
+    2: (0.45, 0.05, 0.15, 1.0),
 }
 #: EN 1998-1 §3.2.2.2 (1)P defines the spectrum by expressions 3.2–3.5 for 0 ≤ T ≤ 4 s.
 EC8_T_MAX = 4.0
@@ -97,7 +104,12 @@ def ec8_eta(damping: float) -> float:
 
 
 def ec8_spectrum(
-    periods: npt.ArrayLike, spectrum_type: int, ag: float, ground: str, damping: float = 0.05
+    periods: npt.ArrayLike,
+    spectrum_type: int,
+    ag: float,
+    ground: str,
+    damping: float = 0.05,
+    vertical: bool = False,
 ) -> FloatArray:
     """EN 1998-1 §3.2.2.2 elastic horizontal response spectrum S_e(T) (expressions 3.2–3.5).
 
@@ -105,6 +117,10 @@ def ec8_spectrum(
         T_B ≤ T ≤ T_C:  S_e = 2.5 a_g S η
         T_C ≤ T ≤ T_D:  S_e = 2.5 a_g S η T_C/T
         T_D ≤ T ≤ 4 s:  S_e = 2.5 a_g S η T_C T_D/T²
+
+    With ``vertical``, the §3.2.2.3 elastic vertical spectrum S_ve(T) (expressions 3.8–3.11,
+    Table 3.4): the same shape with a_vg = (a_vg/a_g) a_g in place of a_g S, 3.0 in place of
+    2.5, and T_B, T_C, T_D of Table 3.4 (the ground type plays no part).
 
     Args:
         periods: periods T (s), in [0, 4].
@@ -136,11 +152,15 @@ def ec8_spectrum(
             f"(asked for {float(np.nanmin(t)):g} to {float(np.nanmax(t)):g} s)"
         )
     s, tb, tc, td = table[ground]
+    amp = 2.5
+    if vertical:
+        s, tb, tc, td = EC8_VERTICAL[spectrum_type]
+        amp = 3.0
     eta = ec8_eta(damping)
-    plateau = 2.5 * ag * s * eta
+    plateau = amp * ag * s * eta
     se = np.where(
         t <= tb,
-        ag * s * (1.0 + t / tb * (2.5 * eta - 1.0)),
+        ag * s * (1.0 + t / tb * (amp * eta - 1.0)),
         np.where(
             t <= tc,
             plateau,
@@ -169,9 +189,11 @@ class Ec8Target:
     ag: float
     ground: str
     damping: float = 0.05
+    #: The vertical spectrum (§3.2.2.3) instead of the horizontal one.
+    vertical: bool = False
 
     def __post_init__(self) -> None:
-        ec8_spectrum([0.0], self.spectrum_type, self.ag, self.ground, self.damping)  # validate
+        self.psa([0.0])  # validate
 
     @property
     def period_range(self) -> tuple[float, float]:
@@ -179,24 +201,36 @@ class Ec8Target:
 
     @property
     def label(self) -> str:
+        if self.vertical:
+            return (
+                f"EC8 type {self.spectrum_type} vertical, a_g = {self.ag / G:.3g} g, "
+                f"{100 * self.damping:g} %"
+            )
         return (
             f"EC8 type {self.spectrum_type}, a_g = {self.ag / G:.3g} g, "
             f"ground {self.ground}, {100 * self.damping:g} %"
         )
 
     def psa(self, periods: npt.ArrayLike) -> FloatArray:
-        return ec8_spectrum(periods, self.spectrum_type, self.ag, self.ground, self.damping)
+        return ec8_spectrum(
+            periods, self.spectrum_type, self.ag, self.ground, self.damping, self.vertical
+        )
 
     def describe(self) -> dict[str, Any]:
-        s, tb, tc, td = EC8_GROUND[self.spectrum_type][self.ground]
+        if self.vertical:
+            s, tb, tc, td = EC8_VERTICAL[self.spectrum_type]
+        else:
+            s, tb, tc, td = EC8_GROUND[self.spectrum_type][self.ground]
+        what = "§3.2.2.3, elastic vertical" if self.vertical else "§3.2.2.2, elastic horizontal"
         return {
             "kind": "ec8",
             "label": self.label,
-            "code": "EN 1998-1:2004 §3.2.2.2, elastic horizontal spectrum",
+            "code": f"EN 1998-1:2004 {what} spectrum",
+            "direction": "vertical" if self.vertical else "horizontal",
             "type": self.spectrum_type,
             "ag_m_s2": self.ag,
             "ground": self.ground,
-            "S": s,
+            "avg_over_ag" if self.vertical else "S": s,
             "T_B_s": tb,
             "T_C_s": tc,
             "T_D_s": td,
@@ -324,7 +358,7 @@ def read_target_csv(path: str | Path, damping: float, column: str | None = None)
     return TableTarget(np.array(periods), np.array(psa), damping, name)
 
 
-_EC8_KEYS = ("type", "ag", "soil")
+_EC8_KEYS = ("type", "ag", "soil", "direction")
 
 
 def _parse_ag(text: str) -> float:
@@ -354,7 +388,15 @@ def _parse_ec8(spec: str, damping: float) -> Ec8Target:
             allowed = ", ".join(f"{k}=…" for k in _EC8_KEYS)
             raise ScenarioError(f"EC8 target {spec!r}: {item!r} is not one of {allowed}")
         keys[key] = value.strip()
-    missing = [k for k in _EC8_KEYS if k not in keys]
+    direction = keys.pop("direction", "horizontal").lower()
+    if direction not in ("horizontal", "vertical"):
+        raise ScenarioError(
+            f"EC8 target {spec!r}: direction must be horizontal or vertical (got {direction!r})"
+        )
+    vertical = direction == "vertical"
+    if vertical:
+        keys.setdefault("soil", "A")  # the vertical spectrum has no ground factor
+    missing = [k for k in _EC8_KEYS[:3] if k not in keys]
     if missing:
         raise ScenarioError(
             f"EC8 target {spec!r} needs {', '.join(missing)} (e.g. ec8:type=1,ag=0.3g,soil=B)"
@@ -363,14 +405,15 @@ def _parse_ec8(spec: str, damping: float) -> Ec8Target:
         kind = int(keys["type"])
     except ValueError:
         raise ScenarioError(f"EC8 spectrum type must be 1 or 2 (got {keys['type']!r})") from None
-    return Ec8Target(kind, _parse_ag(keys["ag"]), keys["soil"].upper(), damping)
+    return Ec8Target(kind, _parse_ag(keys["ag"]), keys["soil"].upper(), damping, vertical)
 
 
 def parse_target(spec: str, damping: float, column: str | None = None) -> Target:
     """The target named on the command line.
 
     ``ec8:type=T,ag=A,soil=S`` (T 1 or 2; A in m/s², or in g with a ``g`` suffix: ``0.3g``;
-    S a ground type A–E) is the EN 1998-1 elastic horizontal spectrum at ``damping``; anything
+    S a ground type A–E) is the EN 1998-1 elastic horizontal spectrum at ``damping``, with
+    ``direction=vertical`` the vertical one (no ground type needed); anything
     else is a CSV file of (period s, PSA m/s²) computed at ``damping``.
 
     Raises:
