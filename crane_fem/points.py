@@ -154,8 +154,10 @@ class PointMotions:
             self.points.append(_Point(name, side, blocks, dist))
         any_side = explicit if explicit is not None else implicit
         self.bs = bs = any_side.bs if any_side is not None else 3
+        #: The translations of a node's block (a beam's node also has 3 rotations).
+        self.nc = nc = min(bs, 3)
         dofs = [
-            p.blocks[0] * bs + np.arange(bs)
+            p.blocks[0] * bs + np.arange(nc)
             for p in self.points
             if p.side == "implicit" and p.blocks.size
         ]
@@ -173,17 +175,18 @@ class PointMotions:
         if not self.ground:
             return {}
         ag = self.ground(t)
-        return {f"ground_a{c}": float(ag[i]) for i, c in enumerate("xyz"[: self.bs])}
+        return {f"ground_a{c}": float(ag[i]) for i, c in enumerate("xyz"[: self.nc])}
 
     @property
     def columns(self) -> list[str]:
-        axes = "xyz"[: self.bs]
+        axes = "xyz"[: self.nc]
         cols = [f"ground_a{c}" for c in axes] if self.ground else []
         return cols + [f"{p.name}_a{c}" for p in self.points for c in axes]
 
     @property
     def implicit_dofs(self) -> npt.NDArray[np.int64]:
-        """The owned DOFs of the implicit side's points on this rank, point by point."""
+        """The owned DOFs of the implicit side's points on this rank, point by point (their
+        translations)."""
         return self._implicit_dofs
 
     def sample(
@@ -196,25 +199,25 @@ class PointMotions:
         implicit side's at :attr:`implicit_dofs`) and return the row values of the points'
         columns: each point's absolute acceleration centred one sampling interval earlier
         (the ground's alone until three samples are taken) (collective)."""
-        bs = self.bs
-        disp = np.zeros((len(self.points), bs))
+        bs, nc = self.bs, self.nc
+        disp = np.zeros((len(self.points), nc))
         k = 0
         for i, p in enumerate(self.points):
             if not p.blocks.size:
                 continue
             if p.side == "explicit" and u_explicit is not None:
-                disp[i] = u_explicit.reshape(-1, bs)[p.blocks[0]]
+                disp[i] = u_explicit.reshape(-1, bs)[p.blocks[0], :nc]
             elif p.side == "implicit" and u_implicit_dofs is not None:
-                disp[i] = u_implicit_dofs[k : k + bs]
-                k += bs
+                disp[i] = u_implicit_dofs[k : k + nc]
+                k += nc
         disp = self.comm.allreduce(disp, op=MPI.SUM)
         if len(self._u_prev) < 2:
             at = t
-            acc = np.tile(self.ground(t)[:bs], (len(self.points), 1))
+            acc = np.tile(self.ground(t)[:nc], (len(self.points), 1))
         else:
             (u2, u1), (t2, t1) = self._u_prev, self._t_prev
             h = 0.5 * (t - t2)
-            ag = 0.25 * (self.ground(t2) + 2.0 * self.ground(t1) + self.ground(t))[:bs]
+            ag = 0.25 * (self.ground(t2) + 2.0 * self.ground(t1) + self.ground(t))[:nc]
             acc = (disp - 2.0 * u1 + u2) / (h * h) + ag[None, :]
             at = t1
         self._u_prev = [*self._u_prev[-1:], disp]
@@ -226,14 +229,14 @@ class PointMotions:
             self.acc.append(acc.copy())
         row: dict[str, float] = {}
         for i, p in enumerate(self.points):
-            for j, c in enumerate("xyz"[:bs]):
+            for j, c in enumerate("xyz"[:nc]):
                 row[f"{p.name}_a{c}"] = float(acc[i, j])
         return row
 
     def state_dict(self) -> dict[str, Any]:
         """The samples so far and the last two displacements (a checkpoint; global
         values)."""
-        shape = (len(self.t), len(self.points), self.bs)
+        shape = (len(self.t), len(self.points), self.nc)
         out: dict[str, Any] = {"t": np.asarray(self.t, dtype=np.float64)}
         out["acc"] = np.asarray(self.acc, dtype=np.float64).reshape(shape)
         out["u_prev"] = np.asarray(self._u_prev, dtype=np.float64)
@@ -249,13 +252,14 @@ class PointMotions:
     def series(self) -> tuple[FloatArray, dict[str, FloatArray]]:
         """The sample times and, per column name, its samples (ground included)."""
         t = np.asarray(self.t)
-        acc = np.asarray(self.acc).reshape(len(self.t), len(self.points), self.bs)
+        nc = self.nc
+        acc = np.asarray(self.acc).reshape(len(self.t), len(self.points), nc)
         out: dict[str, FloatArray] = {}
         if self.ground:
-            g = np.array([self.ground(s)[: self.bs] for s in self.t]).reshape(-1, self.bs)
-            for j, c in enumerate("xyz"[: self.bs]):
+            g = np.array([self.ground(s)[:nc] for s in self.t]).reshape(-1, nc)
+            for j, c in enumerate("xyz"[:nc]):
                 out[f"ground_a{c}"] = g[:, j]
         for i, p in enumerate(self.points):
-            for j, c in enumerate("xyz"[: self.bs]):
+            for j, c in enumerate("xyz"[:nc]):
                 out[f"{p.name}_a{c}"] = acc[:, i, j]
         return t, out

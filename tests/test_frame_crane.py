@@ -158,8 +158,13 @@ def _summary_floors(run: RunResult) -> dict[str, float]:
 RTOL_NP2 = 3e-10
 
 
+#: Measured points on the frame (a beam node's translations; its rotations left out): the
+#: girder at mid-span and an end carriage.
+POINTS = "spectra.points={girder_mid=[-0.5, 2.0, 0.2592], end_carriage=[-0.75, 0.075, 0.075]}"
+
+
 def _three(end: float, every: int | None = None) -> Scenario:
-    sets = [f"time.end={end}", "output.xdmf=false"]
+    sets = [f"time.end={end}", "output.xdmf=false", POINTS]
     if every is not None:
         sets.append(f"output.checkpoint_every={every}")
     return load_scenario(THREE, sets)
@@ -171,10 +176,11 @@ def test_restart_through_friction_flanges_and_repairings(shared_tmp) -> None:
     (the latest at sample 21, 0.105 s: after the first re-pairing of the point-on-line rows,
     measured between 0.08 and 0.10 s, in the wheels' first flight, 0.054–0.126 s, between
     two stress evaluations), continued to 0.16 s through the landing's impacts, the flanges'
-    strikes (0.135–0.141 s) and the second re-pairing (0.12–0.13 s): history, history.csv,
-    summary, summary.json and results.csv equal to the uninterrupted run's, bit for bit
-    serially, to RTOL_NP2 on two ranks (their own spread: as tests/test_checkpoint.py's
-    restarts, whose two-rank bound is the quick crane's spread)."""
+    strikes (0.135–0.141 s) and the second re-pairing (0.12–0.13 s), two measured points on
+    the beams: history, history.csv, summary, summary.json, results.csv and spectra.csv
+    equal to the uninterrupted run's, bit for bit serially, to RTOL_NP2 on two ranks (their
+    own spread: as tests/test_checkpoint.py's restarts, whose two-rank bound is the quick
+    crane's spread)."""
     rtol = 0.0 if COMM.size == 1 else RTOL_NP2
     ref_dir, cut = shared_tmp / "ref", shared_tmp / "cut"
     ref = run_scenario(_three(0.16), ref_dir, COMM, progress=False)
@@ -190,6 +196,11 @@ def test_restart_through_friction_flanges_and_repairings(shared_tmp) -> None:
     _same_summary(*saved, rtol, floors)
     if rtol == 0.0:
         assert (ref_dir / "results.csv").read_bytes() == (cut / "results.csv").read_bytes()
+        assert (ref_dir / "spectra.csv").read_bytes() == (cut / "spectra.csv").read_bytes()
+    # The measured points' three translations, in the history and the spectra.
+    for name in ("girder_mid", "end_carriage"):
+        assert {f"{name}_a{c}" for c in "xyz"} <= set(ref.history)
+    assert "psa_girder_mid_z" in (ref_dir / "spectra.csv").read_text().splitlines()[0]
     # What the continued run restores: the rows' pairing, the friction's sticking state, the
     # wheels' flights and peaks, the phase of the stress evaluations.
     s, paired = ref.summary, first.summary["node_to_surface"]["repairings"]
