@@ -152,10 +152,10 @@ def report(out: Path, wall: float, matched: dict[str, dict]) -> str:
     ]
     for label, m in matched.items():
         recs = m["records"]
-        lo = min(r["min_ratio"] for r in recs)
-        hi = max(r["max_ratio"] for r in recs)
+        lo = min(r["ratio_min"] for r in recs)
+        hi = max(r["ratio_max"] for r in recs)
         mean = m.get("mean", {})
-        m_lo, m_hi = mean.get("min_ratio", math.nan), mean.get("max_ratio", math.nan)
+        m_lo, m_hi = mean.get("ratio_min", math.nan), mean.get("ratio_max", math.nan)
         lines.append(
             f"| {label} | {m['target']['label']} | {lo:.3f} / {hi:.3f} | {m_lo:.3f} / {m_hi:.3f} |"
         )

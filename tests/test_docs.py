@@ -192,6 +192,14 @@ def test_toml_snippet(doc: str, k: int, text: str) -> None:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         pytest.fail(f"{where}: TOML syntax error: {exc}")
+    if "scene" in data:  # a study file (crane-fem study): its schema, strictly
+        from crane_fem.study import StudySpec
+
+        try:
+            StudySpec.model_validate(data)
+        except ValidationError as exc:
+            pytest.fail(f"{where}: not a valid study file: {exc}")
+        return
     if all(s in data for s in REQUIRED):  # a whole scenario
         try:
             parse_scenario(data, where)
