@@ -3,7 +3,8 @@ explicit run of the same scene, each with its engineering tolerance.
 
 Per wheel: the largest uplift (10 %, or 0.1 mm), the longest flight (5 %), the first
 landing's impulse (5 %) and peak force (10 %), the run's peak force (10 %), the slip along
-and across its rail (10 %, or 0.5 mm); per flange its peak force (15 %); the bridge's peak
+and across its rail (10 %, or 0.5 mm), a gmsh model's or a frame's contact's largest slip (the
+same); per flange its peak force (15 %); the bridge's peak
 von Mises stress (5 %) and, in the part where the reference peaks, the run's own peak there
 (5 %: the same part, ties between mirror-symmetric parts allowed); a frame's or gmsh model's
 peak von Mises stress per group (5 %); each support's peak force and peak vertical force
@@ -44,6 +45,7 @@ TOLERANCES: dict[str, tuple[float, float]] = {
     "peak force": (0.10, 0.0),
     "slip along": (0.10, 5e-4),
     "slip across": (0.10, 5e-4),
+    "contact slip": (0.10, 5e-4),
     "flange peak force": (0.15, 0.0),
     "bridge peak von Mises": (0.05, 0.0),
     "bridge peak von Mises in the reference's part": (0.05, 0.0),
@@ -162,6 +164,9 @@ def signoff_quantities(
             key = f"max_slip_{d}_m"
             if key in w:
                 add(f"slip {d}", where, w[key], "m")
+    for name, g in sorted(summary.get("contact_groups", {}).items()):
+        if "max_slip_m" in g:  # a gmsh model's or a frame's contact: its largest point slip
+            add("contact slip", name, g["max_slip_m"], "m")
     for name, f in sorted(summary.get("flanges", {}).items()):
         add("flange peak force", f"flange {name}", f["peak_force_N"], "N")
     if "peak_bridge_von_mises_Pa" in summary:
