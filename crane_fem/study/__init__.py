@@ -11,6 +11,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -85,7 +86,7 @@ def run_study(
         bar.update()
         if r.status != "completed":
             failed.append(r)
-            bar.write(f"crane-fem: case {r.name}: {r.status}: {r.error}")
+            bar.write(f"crane-fem: case {r.name}: {r.status}: {r.error}", file=sys.stderr)
 
     try:
         with _sigterm_as_interrupt(), cluster(n_workers, scheduler) as client:
