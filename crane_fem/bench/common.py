@@ -76,14 +76,10 @@ def explicit_settings(
 
 
 def toml_value(value: Any) -> str:
-    """``value`` as a TOML literal for ``--set KEY=VALUE``."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return f'"{value}"'
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(toml_value(v) for v in value) + "]"
-    return repr(value)
+    """``value`` as a TOML literal for ``--set KEY=VALUE`` (the study's writer)."""
+    from crane_fem.study.cases import toml_literal
+
+    return toml_literal(value)
 
 
 @dataclass
