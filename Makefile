@@ -24,9 +24,14 @@ lint: $(BIN)/.installed
 
 # pytest exits 5 when it collected no test: that is a failure here, as is any non-zero code.
 # The serial pass runs on NP workers (pytest-xdist), a file per worker (a module's shared
-# runs are made once): 7.5 instead of 11.6 min on 2 cores.
+# runs are made once), the files with the most `slow` tests handed out first
+# (tests/conftest.py orders them; --no-loadscope-reorder keeps that order) so that the
+# workers finish together. One BLAS/OpenMP thread per worker, as in the mpiexec pass: NP
+# workers of threaded BLAS (and the `mpiexec -n 2` jobs some tests start) oversubscribe the
+# cores.
 test-serial: $(BIN)/.installed
-	$(BIN)/python -m pytest -q -n $(NP) --dist loadfile tests
+	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -q -n $(NP) --dist loadfile \
+		--no-loadscope-reorder tests
 
 # One BLAS/OpenMP thread per rank: NP ranks of threaded BLAS oversubscribe the cores.
 test-mpi: $(BIN)/.installed

@@ -1,10 +1,13 @@
 """Shared fixtures: MPI-safe temporary directories and scenario builders."""
 
 import copy
+import json
 import os
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pytest
@@ -70,25 +73,192 @@ def mpiexec_env() -> dict[str, str]:
     return {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
 
 
+#: A hang (a collective one rank left) fails the test instead of stalling the suite: the
+#: scenes these tests run take seconds, 10 min is far beyond any of them.
+SPAWN_TIMEOUT = 600
+
+
+def run_two_ranks(args: list[str], out: Path) -> Path:
+    """``mpiexec -n 2 crane-fem run ARGS -o OUT`` (one BLAS thread per rank,
+    :func:`mpiexec_env`); ``out``."""
+    import subprocess
+    import sys
+
+    bindir = Path(sys.executable).parent
+    cmd = [str(bindir / "mpiexec"), "-n", "2", str(bindir / "crane-fem"), "run", *args]
+    subprocess.run(
+        [*cmd, "-o", str(out)],
+        check=True,
+        capture_output=True,
+        env=mpiexec_env(),
+        timeout=SPAWN_TIMEOUT,
+    )
+    return out
+
+
 def run_serial_and_two_ranks(args: list[str], tmp: Path) -> tuple[Path, Path]:
     """``crane-fem run ARGS`` serially and under ``mpiexec -n 2`` (one BLAS thread per rank,
     :func:`mpiexec_env`), into ``tmp/serial`` and ``tmp/mpi``; their directories."""
     import subprocess
     import sys
 
-    bindir = Path(sys.executable).parent
-    base = [str(bindir / "crane-fem"), "run", *args]
-    serial, par = tmp / "serial", tmp / "mpi"
-    env = mpiexec_env()
-    # A hang (a collective one rank left) fails the test instead of stalling the suite: the
-    # scenes these tests run take seconds, 10 min is far beyond any of them.
-    limit = 600
+    exe = Path(sys.executable).parent / "crane-fem"
+    serial = tmp / "serial"
     subprocess.run(
-        [*base, "-o", str(serial)], check=True, capture_output=True, env=env, timeout=limit
+        [str(exe), "run", *args, "-o", str(serial)],
+        check=True,
+        capture_output=True,
+        env=mpiexec_env(),
+        timeout=SPAWN_TIMEOUT,
     )
-    cmd = [str(bindir / "mpiexec"), "-n", "2", *base, "-o", str(par)]
-    subprocess.run(cmd, check=True, capture_output=True, env=env, timeout=limit)
+    return serial, run_two_ranks(args, tmp / "mpi")
+
+
+@contextmanager
+def own_petsc_options() -> Iterator[None]:
+    """PETSc's options database as a new process has it (none of crane_fem's keys) inside,
+    and as it was before on exit. For a run on MPI.COMM_SELF inside the two-rank pass: the
+    library writes its solvers' defaults into that process-wide database, where they outlive
+    the run (crane_fem/integrators/newmark.py, ``_cholesky``), and reads any key it finds
+    there as the user's choice. A serial run's ``pc_type cholesky`` then makes the next
+    two-rank run fail (PETSc error 92, MatSolverType petsc does not support mpiaij), and
+    the two-rank runs' ``pc_type redundant`` would change the serial run's solver."""
+    from petsc4py import PETSc
+
+    opts = PETSc.Options()
+    before = opts.getAll()
+    ours = [k for k in before if k.startswith("crane_fem_")]
+    for k in ours:
+        opts.delValue(k)
+    try:
+        yield
+    finally:
+        for k in opts.getAll():
+            if k.startswith("crane_fem_"):
+                opts.delValue(k)
+        for k in ours:
+            opts.setValue(k, before[k])
+
+
+def two_ranks_and_serial(
+    scene: Path, sets: list[str], shared: Path, own: Path
+) -> tuple[Path, Path]:
+    """In the suite's ``mpiexec -n 2`` pass (else the calling test is skipped): ``crane-fem run
+    SCENE --set SETS`` on the two ranks, in process (the entry point on MPI.COMM_WORLD), into
+    ``shared/mpi``, and the same scenario serially on each rank alone (MPI.COMM_SELF) into
+    ``own/serial`` (``own``: this rank's directory); the serial and the two-rank directories,
+    both written when this returns. No process is started: for a small scene, starting two
+    (a serial `crane-fem` and an `mpiexec -n 2` one) costs more than the runs."""
+    from crane_fem.cli import main
+    from crane_fem.scenario import load_scenario
+
+    if COMM.size != 2:
+        pytest.skip("a two-rank run against a serial one: in the suite's mpiexec -n 2 pass")
+    par = shared / "mpi"
+    args = ["run", str(scene), "-o", str(par), "--no-progress"]
+    assert main([*args, *[a for s in sets for a in ("--set", s)]]) == 0
+    serial = own / "serial"
+    with own_petsc_options():
+        run_scenario(load_scenario(scene, sets), serial, MPI.COMM_SELF, progress=False)
+    COMM.barrier()
+    sizes = [json.loads((d / "summary.json").read_text())["mpi_size"] for d in (serial, par)]
+    assert sizes == [1, 2], sizes
     return serial, par
+
+
+#: One `mpiexec -n 2` job that runs `crane-fem ARGS` for each case in turn: on each rank,
+#: ``crane_fem.cli.main(ARGS)`` (the `crane-fem` entry point: its return value is the exit
+#: code) with file descriptors 1 and 2 sent to files, so that whatever the case prints, from
+#: Python or from C, is its own; an exception out of main is its traceback and exit code 1
+#: (as a process's); warnings shown afresh for each case (as in a new process). Each rank
+#: appends one JSON line per case to rank<r>.jsonl as soon as the case ends, so that a hang
+#: names the case it is in.
+_JOBS_ON_TWO_RANKS = r"""
+import ctypes, json, os, sys, tempfile, traceback, warnings
+from mpi4py import MPI
+from crane_fem.cli import main
+
+cases, out = json.loads(open(sys.argv[1]).read()), sys.argv[2]
+libc = ctypes.CDLL(None)
+with open(os.path.join(out, f"rank{MPI.COMM_WORLD.rank}.jsonl"), "w") as log:
+    for name, args in cases.items():
+        log.write(json.dumps({"start": name}) + "\n")
+        log.flush()
+        files = [tempfile.TemporaryFile() for _ in range(2)]
+        saved = [os.dup(1), os.dup(2)]
+        sys.stdout.flush(); sys.stderr.flush(); libc.fflush(None)
+        os.dup2(files[0].fileno(), 1); os.dup2(files[1].fileno(), 2)
+        try:
+            with warnings.catch_warnings():
+                try:
+                    code = main(args)
+                except SystemExit as exc:
+                    code = exc.code if isinstance(exc.code, int) else 1
+                except BaseException:
+                    traceback.print_exc()
+                    code = 1
+        finally:
+            sys.stdout.flush(); sys.stderr.flush(); libc.fflush(None)
+            os.dup2(saved[0], 1); os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
+        text = []
+        for f in files:
+            f.seek(0)
+            text.append(f.read().decode(errors="replace"))
+            f.close()
+        log.write(json.dumps({"name": name, "code": code, "out": text[0], "err": text[1]}) + "\n")
+        log.flush()
+"""
+
+
+class RankOutcome(NamedTuple):
+    """One rank's exit code, stdout and stderr for one case of :func:`jobs_on_two_ranks`."""
+
+    code: int
+    out: str
+    err: str
+
+
+def jobs_on_two_ranks(
+    cases: dict[str, list[str]], tmp: Path, timeout: float = 600.0
+) -> dict[str, list[RankOutcome]]:
+    """Each case's ``crane-fem ARGS`` on two ranks, all in one ``mpiexec -n 2`` job
+    (:data:`_JOBS_ON_TWO_RANKS`, one BLAS thread per rank: :func:`mpiexec_env`): each case's
+    outcome on rank 0 and rank 1. One job instead of one per case: each job's start (MPI,
+    dolfinx, the kernels' cache) costs more than most bad inputs take to be refused. A hang
+    (a collective one rank left) fails the calling test, naming the case it was in."""
+    import subprocess
+    import sys
+
+    tmp.mkdir(parents=True, exist_ok=True)
+    spec = tmp / "cases.json"
+    spec.write_text(json.dumps(cases))
+    bindir = Path(sys.executable).parent
+    cmd = [str(bindir / "mpiexec"), "-n", "2", sys.executable, "-c", _JOBS_ON_TWO_RANKS]
+    try:
+        res = subprocess.run(
+            [*cmd, str(spec), str(tmp)],
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            env=mpiexec_env(),
+        )
+    except subprocess.TimeoutExpired:
+        logs = [tmp / f"rank{r}.jsonl" for r in (0, 1)]
+        last = [p.read_text().splitlines()[-1:] if p.exists() else [] for p in logs]
+        raise AssertionError(f"the job hung; each rank's last line: {last}") from None
+    assert res.returncode == 0, (res.returncode, res.stdout, res.stderr)
+    outcomes: dict[str, list[RankOutcome]] = {name: [] for name in cases}
+    for r in (0, 1):
+        for line in (tmp / f"rank{r}.jsonl").read_text().splitlines():
+            entry = json.loads(line)
+            if "name" in entry:
+                outcomes[entry["name"]].append(
+                    RankOutcome(entry["code"], entry["out"], entry["err"])
+                )
+    assert all(len(o) == 2 for o in outcomes.values()), outcomes
+    return outcomes
 
 
 def error_line(code: int, capsys: pytest.CaptureFixture[str]) -> str:
@@ -102,10 +272,22 @@ def error_line(code: int, capsys: pytest.CaptureFixture[str]) -> str:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Tests marked ``serial`` launch their own MPI jobs: run them only in the serial pass."""
+    """Serially: the modules that hold the most tests marked ``slow`` first (each module's
+    tests in their order). The serial pass gives whole modules to its workers
+    (``--dist loadfile``) in this order (``--no-loadscope-reorder``): the long modules start
+    first and the many short ones fill in at the end, so that the workers finish together
+    (xdist's own order, the modules with the most tests first, left the long modules, which
+    have few tests, for the end). Under mpiexec: tests marked ``serial`` (those that launch
+    their own MPI jobs, or whose two-rank run would check nothing more: each says why) are
+    skipped."""
     if COMM.size == 1:
+        weight: dict[str, int] = {}
+        for item in items:
+            module = item.nodeid.split("::")[0]
+            weight[module] = weight.get(module, 0) + ("slow" in item.keywords)
+        items.sort(key=lambda item: -weight[item.nodeid.split("::")[0]])
         return
-    skip = pytest.mark.skip(reason="serial-only (launches its own mpiexec)")
+    skip = pytest.mark.skip(reason="serial pass only (see the test or its module)")
     for item in items:
         if "serial" in item.keywords:
             item.add_marker(skip)

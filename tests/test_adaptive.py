@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_same_histories, make_scenario, run, run_serial_and_two_ranks
+from conftest import COMM, assert_same_histories, make_scenario, run, run_two_ranks
 
 from crane_fem.cli import main
 from crane_fem.io import read_history
@@ -94,26 +94,27 @@ def test_sampling_is_the_same_in_every_method(shared_tmp) -> None:
 
 @pytest.fixture(scope="module")
 def quick_pair(tmp_path_factory) -> Path:
-    """The quick crane scene's fully explicit run (serial only: the pair's two-rank check is
-    the crane scene's)."""
+    """The quick crane scene as written (refining gc-mean) and its fully explicit run, each
+    serially (serial only: their two-rank check spawns `mpiexec -n 2`)."""
     if COMM.size > 1:
         pytest.skip("the quick scene pair runs serially")
     root = tmp_path_factory.mktemp("adaptive_quick")
-    args = ["run", str(QUICK), "-o", str(root / "explicit"), "--no-progress"]
-    assert main([*args, "--set", "coupling.method='monolithic'", "--set", "output.xdmf=false"]) == 0
+    for name, sets in (("heterogeneous", []), ("explicit", ["coupling.method='monolithic'"])):
+        args = ["run", str(QUICK), "-o", str(root / name), "--no-progress"]
+        for s in [*sets, "output.xdmf=false"]:
+            args += ["--set", s]
+        assert main(args) == 0
     return root
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_quick_scene_as_written_meets_the_engineering_tolerances(quick_pair) -> None:
     """demos/crane_quick.toml as written (refining gc-mean) against the fully explicit run:
     every quantity of criterion (b) within its tolerance (THEORY.md §8: peak and first
     landing forces 10 %, impulses 5 %, uplift 10 %, bridge stress 5 % and its part, support
     forces 10 %, floor spectra 10 %)."""
-    out = quick_pair / "heterogeneous"
-    args = ["run", str(QUICK), "-o", str(out), "--no-progress", "--set", "output.xdmf=false"]
-    assert main(args) == 0
-    checks = judge_dirs(out, quick_pair / "explicit")
+    checks = judge_dirs(quick_pair / "heterogeneous", quick_pair / "explicit")
     assert len(checks) >= 40
     bad = [(c.quantity, c.where, round(c.ratio, 2)) for c in checks if not c.ok]
     assert not bad, bad
@@ -121,18 +122,32 @@ def test_quick_scene_as_written_meets_the_engineering_tolerances(quick_pair) -> 
     assert w is not None and w.ratio <= 1.0
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 @pytest.mark.mpi
-def test_quick_scene_as_written_mpiexec_same_as_serial(tmp_path) -> None:
+def test_quick_scene_as_written_mpiexec_same_as_serial(quick_pair, tmp_path) -> None:
     """The refining step under `mpiexec -n 2` (quick scene as written, through its landing):
-    the same rungs on both ranks (every decision is one reduction) and the serial histories
-    to the crane's serial/parallel tolerance (1e-8: distributed sums in another order)."""
-    args = [str(QUICK), "--set", "output.xdmf=false"]
-    serial, par = run_serial_and_two_ranks(args, tmp_path)
+    the same rungs on both ranks (every decision is one reduction), the serial histories
+    to the crane's serial/parallel tolerance (1e-8: distributed sums in another order), and
+    the wheels' table, whose peaks are read from every micro step between the rows: the
+    same lift-offs and peak times, the peak forces and uplifts to the same 1e-8 (as the
+    quick scene's fixed-ratio runs, test_crane_scene.py). The serial run is the module's
+    (quick_pair: the same command on one rank)."""
+    serial = quick_pair / "heterogeneous"
+    par = run_two_ranks([str(QUICK), "--set", "output.xdmf=false", "--no-progress"], tmp_path)
     s1 = json.loads((serial / "summary.json").read_text())
     s2 = json.loads((par / "summary.json").read_text())
-    assert s2["mpi_size"] == 2 and s1["adaptive"]["fine_steps"] > 0
+    assert s1["mpi_size"] == 1 and s2["mpi_size"] == 2 and s1["adaptive"]["fine_steps"] > 0
     assert s2["adaptive"] == s1["adaptive"]
+    assert sorted(s2["wheels"]) == sorted(s1["wheels"]) == ["1", "2", "3", "4"]
+    for k, w in s1["wheels"].items():
+        assert w["lift_offs"]["count"] >= 1 and w["impacts"], k  # through the landing
+        assert s2["wheels"][k]["lift_offs"]["count"] == w["lift_offs"]["count"], k
+        assert s2["wheels"][k]["peak_force_time_s"] == pytest.approx(
+            w["peak_force_time_s"], rel=1e-12
+        )
+        assert s2["wheels"][k]["peak_force_N"] == pytest.approx(w["peak_force_N"], rel=1e-8)
+        assert s2["wheels"][k]["max_uplift_m"] == pytest.approx(w["max_uplift_m"], rel=1e-8)
     assert_same_histories(
         read_history(serial / "history.csv"), read_history(par / "history.csv"), 1e-8
     )

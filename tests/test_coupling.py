@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import make_scenario, mpiexec_env, run
+from conftest import make_scenario, run, two_ranks_and_serial
 
 from crane_fem.errors import CraneFemError, ScenarioError
 from crane_fem.scenario import load_scenario
@@ -532,20 +532,17 @@ def test_explicit_dt_above_critical_is_an_error(shared_tmp) -> None:
     assert math.isfinite(0.1)
 
 
-@pytest.mark.serial
 @pytest.mark.mpi
 @pytest.mark.parametrize(
     "case",
     ["bar", "beam", "bar-ec", "bar-hybrid", "bar-gc-mean", "beam-gc-mean", "undamped-ph"],
 )
-def test_coupled_mpiexec_two_ranks_same_histories(tmp_path, case) -> None:
-    """`mpiexec -n 2` gives the serial histories, with the interface cut by the partition
-    (the split bar's interface vertex and the beam's interface face straddle the ranks);
-    "bar-ec", "bar-hybrid", "…-gc-mean": the split bar or the beam with those couplings;
-    "undamped-ph": the clamped split bar without wall under "ph", with its PH measure."""
-    import json
-    import subprocess
-    import sys
+def test_coupled_two_ranks_same_histories(shared_tmp, tmp_path, case) -> None:
+    """Two ranks give the serial histories, with the interface cut by the partition (the
+    split bar's interface vertex and the beam's interface face straddle the ranks); "bar-ec",
+    "bar-hybrid", "…-gc-mean": the split bar or the beam with those couplings; "undamped-ph":
+    the clamped split bar without wall under "ph", with its PH measure. In the suite's
+    mpiexec pass (conftest.two_ranks_and_serial)."""
     from pathlib import Path
 
     from crane_fem.io import read_history
@@ -560,28 +557,15 @@ def test_coupled_mpiexec_two_ranks_same_histories(tmp_path, case) -> None:
             "undamped": "split_bar_undamped.toml",
         }[scene]
     )
-    exe = Path(sys.executable).parent / "crane-fem"
-    mpiexec = Path(sys.executable).parent / "mpiexec"
-    base = [
-        str(exe),
-        "run",
-        str(scenario),
-        "--set",
+    sets = [
         "output.xdmf=false",
-        "--set",
         "time.end=" + {"beam": "1e-3", "bar": "0.6", "undamped": "2.0"}[scene],
     ]
     if method:
-        base += ["--set", f"coupling.method='{method}'"]
-    subprocess.run([*base, "-o", str(tmp_path / "s")], check=True, capture_output=True)
-    subprocess.run(
-        [str(mpiexec), "-n", "2", *base, "-o", str(tmp_path / "p")],
-        check=True,
-        capture_output=True,
-        env=mpiexec_env(),
-    )
-    h1, h2 = read_history(tmp_path / "s/history.csv"), read_history(tmp_path / "p/history.csv")
-    assert json.loads((tmp_path / "p/summary.json").read_text())["mpi_size"] == 2
+        sets.append(f"coupling.method='{method}'")
+    serial, par = two_ranks_and_serial(scenario, sets, shared_tmp, tmp_path)
+    h1, h2 = read_history(serial / "history.csv"), read_history(par / "history.csv")
+    assert json.loads((par / "summary.json").read_text())["mpi_size"] == 2
     escale = max(np.max(np.abs(h1[c])) for c in ("total", "kinetic", "internal", "external_work"))
     if method == "ph":  # its measure, whose scale is E_PH (κ-weighted), not the physical one
         assert "interface_energy_ph" in h1

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_same_histories, run_serial_and_two_ranks
+from conftest import COMM, assert_same_histories, run_two_ranks
 
 from crane_fem.driver import run_scenario
 from crane_fem.errors import ScenarioError
@@ -47,23 +47,56 @@ def test_flange_groups_start_at_the_clearance(shared_tmp) -> None:
     assert s["energy_balance_error"] <= 1e-9
 
 
+@pytest.mark.slow
 @pytest.mark.serial
-def test_lateral_shake_strikes_the_flanges_and_guides_the_wheels(shared_tmp) -> None:
+@pytest.mark.mpi
+def test_lateral_shake_strikes_the_flanges_guides_the_wheels_and_agrees_on_two_ranks(
+    tmp_path,
+) -> None:
     """The lateral shake that drives frictionless, unguided wheels 12.5 mm off their pairs
     (tests/test_slip.py) now closes the 5 mm flange gaps: every flange strikes its rail
-    (measured, braked μ = 0.3 as the scene: peak forces 0.37–0.54 MN, 1–3 impacts each over
-    0.03 s; frictionless 0.36–0.68 MN) and the wheels stay guided, their slip across ≈ the
-    clearance (measured 5.55–5.57 mm; frictionless 5.64–5.66 mm; the rest elastic), well
-    inside the pairs' reach: no SlipError."""
-    sc = load_scenario(SCENE, ["time.end=0.03", "output.xdmf=false", LATERAL])
-    s = run_scenario(sc, shared_tmp, COMM, progress=False).summary
-    assert s["status"] == "completed"
+    (measured, braked μ = 0.3 as the scene: peak forces 0.37–0.80 MN, 1–3 impacts each over
+    0.03 s) and the wheels stay guided, their slip across ≈ the clearance (measured
+    5.61–5.75 mm; the rest elastic), well inside the pairs' reach: no SlipError. The wheels
+    bounce (1–3 lift-offs each, two land with impacts) and the node-to-surface rows are
+    paired again as they slide (22 times). Serially and under mpiexec -n 2, which agree to
+    round-off (1e-8 of each column's scale, as the quick scene's two-rank test) in the
+    history and in the wheels' and flanges' tables, the re-pairings at the same macro steps:
+    the two-rank check of the scene's flanges, braked friction and re-paired rows (its
+    El Centro run through the landing, test_three_component_scene_guides_and_holds, is
+    serial)."""
+    sets = ["time.end=0.03", "output.xdmf=false", LATERAL]
+    s1 = run_scenario(load_scenario(SCENE, sets), tmp_path / "serial", COMM, progress=False).summary
+    assert s1["status"] == "completed"
     for key in FLANGE_KEYS:
-        assert s["flanges"][key]["peak_force_N"] > 0.0
-        assert len(s["flanges"][key]["impacts"]) >= 1
-    for w in s["wheels"].values():
+        assert s1["flanges"][key]["peak_force_N"] > 0.0
+        assert len(s1["flanges"][key]["impacts"]) >= 1
+    for w in s1["wheels"].values():
         assert CLEARANCE < w["max_slip_across_m"] < 1.3 * CLEARANCE < REACH
-    assert s["energy_balance_error"] <= 1e-9
+    assert s1["energy_balance_error"] <= 1e-9
+    assert s1["node_to_surface"]["repairings"] >= 5
+    assert any(w["impacts"] for w in s1["wheels"].values())
+    par = run_two_ranks(
+        [str(SCENE), "--no-progress", *[a for x in sets for a in ("--set", x)]], tmp_path / "mpi"
+    )
+    s2 = json.loads((par / "summary.json").read_text())
+    assert s2["status"] == "completed" and s2["mpi_size"] == 2
+    assert all(n > 0 for n in s2["contact_dofs_per_rank"]), s2["contact_dofs_per_rank"]
+    a, b = s1["node_to_surface"], s2["node_to_surface"]
+    assert a["repairings"] == b["repairings"]
+    assert b["gaps_follow_from_s"] == pytest.approx(a["gaps_follow_from_s"], rel=1e-12)
+    for table in ("wheels", "flanges"):
+        for k, x in s1[table].items():
+            y = s2[table][k]
+            assert len(y["impacts"]) == len(x["impacts"]), (table, k)
+            assert y["peak_force_N"] == pytest.approx(x["peak_force_N"], rel=1e-6, abs=1e-3)
+    for k, w in s1["wheels"].items():
+        assert s2["wheels"][k]["lift_offs"]["count"] == w["lift_offs"]["count"], k
+        for q in ("max_slip_across_m", "max_slip_along_m"):
+            assert s2["wheels"][k][q] == pytest.approx(w[q], rel=1e-8), (k, q)
+    h1 = read_history(tmp_path / "serial" / "history.csv")
+    assert_same_histories(h1, read_history(par / "history.csv"), 1e-8)
+    assert h1["friction_dissipated"][-1] > 0.0
 
 
 def _lateral_quick(shared_tmp: Path, sets: list[str]) -> tuple[dict, dict]:
@@ -83,6 +116,7 @@ def _worst_slip(s: dict) -> float:
     return max(w["max_slip_across_m"] for w in s["wheels"].values())
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_braked_wheels_slip_less_by_friction(shared_tmp) -> None:
     """Shaken across the rails (flanges off), braked wheels with μ = 0.3 slip less than
@@ -120,28 +154,22 @@ def test_wheel_section_belongs_to_a_crane() -> None:
         load_scenario(bar, ["wheel.friction=0.3"])
 
 
-@pytest.mark.serial
-@pytest.mark.mpi
-def test_three_component_scene_guides_holds_and_agrees_on_two_ranks(tmp_path) -> None:
+@pytest.mark.slow
+@pytest.mark.serial  # its two-rank behaviour: the lateral shake's two-rank test, above
+def test_three_component_scene_guides_and_holds(shared_tmp) -> None:
     """demos/crane_3c.toml (El Centro 270/180 ×2.5 across/along, vertical ×8; braked μ = 0.3;
     flanges 5 mm off the rails; node-to-surface contact) through its first flight and landing
-    (0.145 s), serially and under mpiexec -n 2. Off its rails (0.052–0.125 s) the trolley
-    keeps its horizontal velocity while the rails follow the ground: it lands with its
-    flanges on the rails' sides. Every wheel strikes a flange (measured: one impact each at
-    0.134–0.140 s, 5–22 kN) and stays guided, its slip across ≈ the clearance (measured
-    5.0 mm); along the rails the trolley has slid 9.9 mm, the contact rows paired again on
-    the way (13 times by 0.16 s). Both runs report it, and agree to round-off (1e-8 of each
-    column's scale, as the quick scene's two-rank test) in the history and in the wheels'
-    and flanges' tables: the re-pairings happen at the same macro steps on both."""
-    args = [str(SCENE), "--set", "output.xdmf=false", "--set", "time.end=0.145", "--no-progress"]
-    serial, par = run_serial_and_two_ranks(args, tmp_path)
-    s1, s2 = (json.loads((d / "summary.json").read_text()) for d in (serial, par))
-    assert s1["status"] == s2["status"] == "completed" and s2["mpi_size"] == 2
+    (0.145 s). Off its rails (0.052–0.125 s) the trolley keeps its horizontal velocity while
+    the rails follow the ground: it lands with its flanges on the rails' sides. Every wheel
+    strikes a flange (measured: one impact each at 0.134–0.140 s, 5–22 kN) and stays guided,
+    its slip across ≈ the clearance (measured 5.0 mm); along the rails the trolley has slid
+    9.9 mm, the contact rows paired again on the way (13 times by 0.16 s)."""
+    sets = ["output.xdmf=false", "time.end=0.145"]
+    run = run_scenario(load_scenario(SCENE, sets), shared_tmp, COMM, progress=False)
+    s1, h1 = run.summary, run.history
+    assert s1["status"] == "completed"
     assert s1["energy_balance_error"] <= 1e-9
     assert s1["node_to_surface"]["repairings"] >= 5
-    a, b = s1["node_to_surface"], s2["node_to_surface"]
-    assert a["repairings"] == b["repairings"]
-    assert b["gaps_follow_from_s"] == pytest.approx(a["gaps_follow_from_s"], rel=1e-12)
     for k, w in s1["wheels"].items():
         sides = [s1["flanges"][f"{side}_{k}"] for side in ("in", "out")]
         assert sum(len(f["impacts"]) for f in sides) >= 1, k
@@ -151,16 +179,6 @@ def test_three_component_scene_guides_holds_and_agrees_on_two_ranks(tmp_path) ->
         assert w["lift_offs"]["count"] >= 1
     lines = results_lines(s1)
     assert any("slip across (mm)" in line and "flange impacts" in line for line in lines)
-    for table in ("wheels", "flanges"):
-        for k, a in s1[table].items():
-            b = s2[table][k]
-            assert len(b["impacts"]) == len(a["impacts"]), (table, k)
-            assert b["peak_force_N"] == pytest.approx(a["peak_force_N"], rel=1e-6, abs=1e-3)
-    for k, w in s1["wheels"].items():
-        for q in ("max_slip_across_m", "max_slip_along_m"):
-            assert s2["wheels"][k][q] == pytest.approx(w[q], rel=1e-8), (k, q)
-    h1, h2 = read_history(serial / "history.csv"), read_history(par / "history.csv")
-    assert_same_histories(h1, h2, 1e-8)
     assert h1["friction_dissipated"][-1] > 0.0
     # Slip as an output: each wheel's history, its slip at the end (the trolley's net drift is
     # their mean) and the intervals where it slid (the landing's slide along the rails among
@@ -180,6 +198,7 @@ def test_three_component_scene_guides_holds_and_agrees_on_two_ranks(tmp_path) ->
     assert abs(s1["trolley_drift_m"][1]) > 0.5 * REACH  # it slid along, by ~10 mm
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_frictionless_free_wheels_stop_the_three_component_run(shared_tmp) -> None:
     """The same record with μ = 0 and free wheels, on node-to-node pairs: nothing holds the
@@ -196,14 +215,16 @@ def test_frictionless_free_wheels_stop_the_three_component_run(shared_tmp) -> No
     assert 0.05 < s["t_reached_s"] < 0.125  # during the first flight
 
 
-@pytest.mark.serial  # its two-rank behaviour: the 3c scene's two-rank test, with re-pairings
+@pytest.mark.slow
+@pytest.mark.serial  # its two-rank behaviour: the lateral shake's two-rank test (re-pairings)
 def test_frictionless_free_wheels_slide_on_over_the_rail_tops(shared_tmp) -> None:
-    """The same frictionless free trolley with the scene's node-to-surface contact: its
-    wheels slide past the 12.5 mm where node-to-node pairs stop (measured 15 mm along by
-    0.16 s, 18 mm by 0.3 s), the rows paired again on the way, inside the 60 mm the
-    frictionless rail tops reach; the energy balance closes (issue 24: ≤ 1e-8; measured
-    1.5e-10 over 0.3 s)."""
-    sets = ["output.xdmf=false", "wheel.friction=0.0", "wheel.braked=false", "time.end=0.16"]
+    """The same frictionless free trolley with the scene's node-to-surface contact, through
+    its first flight and landing (0.052–0.125 s): its wheels slide past the 12.5 mm where
+    node-to-node pairs stop (measured: beyond it from 0.117 s, 14.4 mm along by 0.13 s,
+    15 mm by 0.16 s, 18 mm by 0.3 s), the rows paired again on the way (17 times by 0.13 s,
+    the fifth at 0.075 s), inside the 60 mm the frictionless rail tops reach; the energy
+    balance closes (issue 24: ≤ 1e-8; measured 1.5e-10 over 0.3 s)."""
+    sets = ["output.xdmf=false", "wheel.friction=0.0", "wheel.braked=false", "time.end=0.13"]
     s = run_scenario(load_scenario(SCENE, sets), shared_tmp, COMM, progress=False).summary
     assert s["status"] == "completed"
     assert s["node_to_surface"]["repairings"] >= 5

@@ -4,7 +4,6 @@ figures and ParaView output, and serial = mpiexec -n 2."""
 import json
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
 import meshio
@@ -13,20 +12,23 @@ import pytest
 import pyvista as pv
 from conftest import (
     COMM,
+    QUICK_FIXED_UNSET,
     REFERENCE_RTOL,
     REFERENCE_RTOL_HYBRID,
     REFERENCE_RTOL_NP2,
     assert_same_histories,
-    mpiexec_env,
+    own_petsc_options,
     quick_fixed,
     reference,
-    run_serial_and_two_ranks,
 )
+from mpi4py import MPI
 
 from crane_fem.cli import main
 from crane_fem.compare import compare_runs, first_landing, lift_off_episodes, pair_l2
+from crane_fem.driver import run_scenario
 from crane_fem.io import read_history, read_xdmf
 from crane_fem.plotting import Run, load_runs
+from crane_fem.scenario import load_scenario
 
 DEMOS = Path(__file__).parent.parent / "demos"
 QUICK = DEMOS / "crane_quick.toml"
@@ -85,9 +87,10 @@ def test_preload_carries_the_trolley_weight(shared_tmp) -> None:
 
 @pytest.fixture(scope="module")
 def quick_runs(tmp_path_factory) -> Path:
-    """The quick scene run heterogeneous and fully explicit, then plotted (serial only)."""
+    """The quick scene run heterogeneous and fully explicit, then plotted (serial only: the
+    two-rank checks of the scene are test_quick_scene_two_ranks_*)."""
     if COMM.size > 1:
-        pytest.skip("the quick scene pair runs serially; its MPI check spawns mpiexec")
+        pytest.skip("the quick scene pair runs serially; its two-rank checks are their own")
     root = tmp_path_factory.mktemp("crane_quick")
     _run(root / "heterogeneous")
     _run(root / "explicit", "coupling.method='monolithic'")
@@ -95,6 +98,7 @@ def quick_runs(tmp_path_factory) -> Path:
     return root
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_quick_scene_lift_off_and_reimpact(quick_runs) -> None:
     """Both runs: the wheels lift off and re-impact, the same episodes, balance closed."""
@@ -123,6 +127,7 @@ def test_quick_scene_lift_off_and_reimpact(quick_runs) -> None:
     assert cmp["first_landing_s"] is not None
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 def test_quick_scene_hybrid_keeps_the_interface_energy(quick_runs, tmp_path) -> None:
     """The quick scene with the "hybrid" coupling (docs/theory-notes.md §8) against the same
@@ -243,57 +248,69 @@ def test_quick_scene_figures_and_paraview_output(quick_runs) -> None:
     assert all(np.all(v == 1.0) for _, v in implicit["subdomain"])  # 1 = implicit
 
 
-@pytest.mark.serial
 @pytest.mark.mpi
-@pytest.mark.parametrize("method", ["gc", "hybrid"])
-def test_quick_scene_mpiexec_same_histories(tmp_path, method) -> None:
-    """`mpiexec -n 2 crane-fem run` on the quick scene = serial (≤ 1e-8 relative), with
-    contact pairs and interface DOFs on both ranks; "hybrid": with its three kinds of macro
-    step, decided the same way on both ranks."""
-    args = [str(QUICK), "--set", "output.xdmf=false", "--set", "time.end=0.03"]
-    args += quick_fixed(method)
-    # One BLAS/OpenMP thread in both runs (mpiexec_env): threaded kernels sum in an order
-    # that may change from run to run, and the serial run is then not reproducible to the bit.
-    serial, par = run_serial_and_two_ranks(args, tmp_path)
-    s2 = json.loads((par / "summary.json").read_text())
-    s1 = json.loads((serial / "summary.json").read_text())
-    assert s2["mpi_size"] == 2
-    # The wheels' peaks, read from every micro step: the same lift-offs, and the peak force,
-    # its time and the uplift to round-off.
-    for k, w1 in s1["wheels"].items():
-        w2 = s2["wheels"][k]
-        assert w2["lift_offs"]["count"] == w1["lift_offs"]["count"]
-        assert w2["peak_force_time_s"] == pytest.approx(w1["peak_force_time_s"], rel=1e-12)
-        assert w2["peak_force_N"] == pytest.approx(w1["peak_force_N"], rel=1e-8)
-        assert w2["max_uplift_m"] == pytest.approx(w1["max_uplift_m"], rel=1e-8)
-    if method == "hybrid":
-        assert s2["hybrid_steps"] == s1["hybrid_steps"]
-        assert all(n > 0 for n in s1["hybrid_steps"].values())
-    assert all(n > 0 for n in s2["contact_dofs_per_rank"]), s2["contact_dofs_per_rank"]
-    assert all(n > 0 for n in s2["interface_dofs_per_rank"]), s2["interface_dofs_per_rank"]
-    h1, h2 = read_history(serial / "history.csv"), read_history(par / "history.csv")
-    # Same algorithm, other summation order (SpMV, MUMPS, reductions): round-off only.
-    assert_same_histories(h1, h2, 1e-8)
-    # Both against the Python path's runs of the same rows (the first 0.03 s).
-    rows = h1["t"].size
-    rtol = REFERENCE_RTOL_HYBRID if method == "hybrid" else REFERENCE_RTOL
-    assert_same_histories(reference(f"quick_{method}_np1", rows), h1, rtol)
-    rtol_np2 = REFERENCE_RTOL_HYBRID if method == "hybrid" else REFERENCE_RTOL_NP2
-    assert_same_histories(reference(f"quick_{method}_np2", rows), h2, rtol_np2)
+def test_quick_scene_two_ranks_same_histories(shared_tmp) -> None:
+    """ "gc" and "hybrid" on two ranks (the suite's mpiexec pass: the entry point on
+    MPI.COMM_WORLD, in process) over the quick scene's first 0.03 s = the same runs serially
+    (≤ 1e-8 relative; each on one rank alone, MPI.COMM_SELF, both at once), with contact
+    pairs and interface DOFs on both ranks; "hybrid": with its three kinds of macro step,
+    decided the same way on both ranks."""
+    if COMM.size != 2:
+        pytest.skip("two-rank runs against serial ones: in the suite's mpiexec -n 2 pass")
+    methods = ("gc", "hybrid")
+    sets = ["output.xdmf=false", "time.end=0.03"]
+    # Each rank runs one method's serial reference: the two at once, no rank idle. The
+    # scenario as `crane-fem run` reads it with quick_fixed's arguments.
+    mine = methods[COMM.rank]
+    sc = load_scenario(QUICK, [f"coupling.method='{mine}'", *sets], QUICK_FIXED_UNSET)
+    with own_petsc_options():
+        run_scenario(sc, shared_tmp / f"{mine}_serial", MPI.COMM_SELF, progress=False)
+    for m in methods:
+        args = ["run", str(QUICK), "-o", str(shared_tmp / f"{m}_mpi"), "--no-progress"]
+        args += [*quick_fixed(m), *[a for s in sets for a in ("--set", s)]]
+        assert main(args) == 0
+    COMM.barrier()
+    for method in methods:
+        serial, par = shared_tmp / f"{method}_serial", shared_tmp / f"{method}_mpi"
+        s2 = json.loads((par / "summary.json").read_text())
+        s1 = json.loads((serial / "summary.json").read_text())
+        assert s1["mpi_size"] == 1 and s2["mpi_size"] == 2
+        # The wheels' peaks, read from every micro step: the same lift-offs, and the peak
+        # force, its time and the uplift to round-off.
+        for k, w1 in s1["wheels"].items():
+            w2 = s2["wheels"][k]
+            assert w2["lift_offs"]["count"] == w1["lift_offs"]["count"], method
+            assert w2["peak_force_time_s"] == pytest.approx(w1["peak_force_time_s"], rel=1e-12)
+            assert w2["peak_force_N"] == pytest.approx(w1["peak_force_N"], rel=1e-8)
+            assert w2["max_uplift_m"] == pytest.approx(w1["max_uplift_m"], rel=1e-8)
+        if method == "hybrid":
+            assert s2["hybrid_steps"] == s1["hybrid_steps"]
+            assert all(n > 0 for n in s1["hybrid_steps"].values())
+        assert all(n > 0 for n in s2["contact_dofs_per_rank"]), s2["contact_dofs_per_rank"]
+        assert all(n > 0 for n in s2["interface_dofs_per_rank"]), s2["interface_dofs_per_rank"]
+        h1, h2 = read_history(serial / "history.csv"), read_history(par / "history.csv")
+        # Same algorithm, other summation order (SpMV, MUMPS, reductions): round-off only.
+        assert_same_histories(h1, h2, 1e-8)
+        # Both against the Python path's runs of the same rows (the first 0.03 s).
+        rows = h1["t"].size
+        rtol = REFERENCE_RTOL_HYBRID if method == "hybrid" else REFERENCE_RTOL
+        assert_same_histories(reference(f"quick_{method}_np1", rows), h1, rtol)
+        rtol_np2 = REFERENCE_RTOL_HYBRID if method == "hybrid" else REFERENCE_RTOL_NP2
+        assert_same_histories(reference(f"quick_{method}_np2", rows), h2, rtol_np2)
 
 
-@pytest.mark.serial
 @pytest.mark.mpi
 @pytest.mark.parametrize("method", ["gc-mean", "monolithic"])
-def test_quick_scene_mpiexec_equals_the_python_path(tmp_path, method) -> None:
-    """`mpiexec -n 2` on the whole quick scene against the Python path's two-rank run of it
-    (tests/data/reference), for the methods the serial comparison does not cover there."""
-    mpiexec = Path(sys.executable).parent / "mpiexec"
-    exe = Path(sys.executable).parent / "crane-fem"
-    cmd = [str(mpiexec), "-n", "2", str(exe), "run", str(QUICK), "-o", str(tmp_path)]
-    cmd += ["--set", "output.xdmf=false", *quick_fixed(method)]
-    subprocess.run(cmd, check=True, capture_output=True, env=mpiexec_env())
-    h2 = read_history(tmp_path / "history.csv")
+def test_quick_scene_two_ranks_equal_the_python_path(shared_tmp, method) -> None:
+    """The whole quick scene on two ranks (the suite's mpiexec pass: the entry point, in
+    process) against the Python path's two-rank run of it (tests/data/reference), for the
+    methods the serial comparison does not cover there."""
+    if COMM.size != 2:
+        pytest.skip("against a two-rank reference: in the suite's mpiexec -n 2 pass")
+    args = ["run", str(QUICK), "-o", str(shared_tmp), "--no-progress"]
+    assert main([*args, "--set", "output.xdmf=false", *quick_fixed(method)]) == 0
+    COMM.barrier()
+    h2 = read_history(shared_tmp / "history.csv")
     assert_same_histories(reference(f"quick_{method}_np2"), h2, REFERENCE_RTOL_NP2)
 
 

@@ -1,7 +1,8 @@
 """Figures of `crane-fem plot` on fake run directories: input motion, overlaid runs, wheel groups,
 spectra, the render at the peak von Mises frame, and the warning for unfinished runs.
 
-Each rank builds its own directories in its own tmp_path (plotting is not collective).
+Plotting is not collective (rank 0 plots): on two ranks each rank would make the same
+figures from its own directories, so the module runs in the serial pass only.
 """
 
 import json
@@ -32,6 +33,7 @@ from crane_fem.plotting.runs import figure_title
 from crane_fem.plotting.wheels import WHEEL_RTOL, group_label
 
 matplotlib.use("Agg")
+pytestmark = pytest.mark.serial
 
 ENERGY = ["kinetic", "internal", "external_work", "damping_dissipated", "total"]
 

@@ -211,6 +211,7 @@ def test_restart_through_friction_flanges_and_repairings(shared_tmp) -> None:
 
 
 # ----------------------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.serial
 @pytest.mark.mpi
 def test_two_ranks_equal_serial(tmp_path) -> None:

@@ -8,24 +8,20 @@ change to it per case: a section property missing or not positive, an orientatio
 member, a mesh of 3-node lines, a contact point beyond its line's end or across it without
 clearance, a group not in the mesh, a rope of zero length. In process on every rank of the
 suite's run (serially, and on two ranks under its mpiexec pass), and as `mpiexec -n 2
-crane-fem` jobs (a hang would time out)."""
+crane-fem` (one job; a hang would time out)."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
-from conftest import COMM, error_line, mpiexec_env
+from conftest import COMM, error_line, jobs_on_two_ranks
 
 from crane_fem.cli import main
 from crane_fem.geometry.frame_sketch import FrameSketch
 
 pytestmark = pytest.mark.gmsh
 
-BIN = Path(sys.executable).parent
 
 SCENE = """\
 name = "frame_input"
@@ -178,32 +174,27 @@ def test_bad_frame_input(
         assert f in checked, (f, checked)
 
 
-def _spawn(args: list[str]) -> subprocess.CompletedProcess[str]:
-    cmd = [str(BIN / "mpiexec"), "-n", "2", str(BIN / "crane-fem"), *args]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=120, env=mpiexec_env())
-
-
-@pytest.mark.serial  # launches its own `mpiexec -n 2` jobs
+@pytest.mark.serial  # launches its own `mpiexec -n 2` job
 def test_bad_frame_input_under_mpiexec(frame: Path, tmp_path: Path) -> None:
-    """Each case's `run` as an `mpiexec -n 2 crane-fem` job (three at a time): exit code 2,
-    the same one line on each of the two ranks, naming the key, no traceback, nothing on
-    stdout, no hang (a timeout would raise). (`check` on two ranks, and its line against
-    `run`'s: test_bad_frame_input in the suite's mpiexec pass; each job costs 3 s.)"""
-    jobs = []
+    """Each case's `run` as `crane-fem` on two ranks (one `mpiexec -n 2` job that runs the
+    cases in turn: conftest.jobs_on_two_ranks): exit code 2, the same one line on each of the
+    two ranks, naming the key, no traceback, nothing on stdout, no hang (a timeout would
+    raise). (`check` on two ranks, and its line against `run`'s: test_bad_frame_input in the
+    suite's mpiexec pass.)"""
+    jobs = {}
     for name in CASES:
         args, _ = case_args(frame, name)
-        jobs.append(["run", str(frame), "-o", str(tmp_path / name), "--no-progress", *args])
-    with ThreadPoolExecutor(max_workers=3) as pool:
-        done = dict(zip(CASES, pool.map(_spawn, jobs), strict=True))
+        jobs[name] = ["run", str(frame), "-o", str(tmp_path / name), "--no-progress", *args]
+    done = jobs_on_two_ranks(jobs, tmp_path / "job")
     problems = []  # every case's, not the first one's only
-    for name, res in done.items():
-        err = res.stderr.strip().splitlines()
-        if res.returncode != 2 or len(err) != 2 or err[0] != err[1]:
-            problems.append((name, res.returncode, res.stderr))
-        elif not err[0].startswith("crane-fem: error: ") or "Traceback" in res.stderr:
-            problems.append((name, res.stderr))
-        elif res.stdout != "":
-            problems.append((name, res.stdout))
+    for name, ranks in done.items():
+        err = [r.err.strip().splitlines() for r in ranks]
+        if [r.code for r in ranks] != [2, 2] or [len(e) for e in err] != [1, 1]:
+            problems.append((name, ranks))
+        elif err[0] != err[1] or not err[0][0].startswith("crane-fem: error: "):
+            problems.append((name, ranks))
+        elif any("Traceback" in r.err or r.out != "" for r in ranks):
+            problems.append((name, ranks))
         else:
-            problems += [(name, f, err[0]) for f in CASES[name][1] if f not in err[0]]
+            problems += [(name, f, err[0][0]) for f in CASES[name][1] if f not in err[0][0]]
     assert not problems, problems

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_same_histories, run_serial_and_two_ranks
+from conftest import COMM, assert_same_histories, two_ranks_and_serial
 
 from crane_fem.contact import ContactSet
 from crane_fem.contact import friction as nf
@@ -385,6 +385,7 @@ def sliding(root) -> dict[tuple[float, float], dict[str, np.ndarray]]:
     }
 
 
+@pytest.mark.serial  # two ranks = serial to 1e-8 on this block: test_serial_and_two_ranks_agree
 def test_sliding_block_stops_at_the_exact_time_and_distance(sliding) -> None:
     """From v0 = 0.1 m/s with μ = 0.3 the centre of mass stops at t = v0/(μ g) after
     x = v0²/(2 μ g) (rigid block, exact). Stop time: the first zero of vx_mean (interpolated
@@ -482,13 +483,12 @@ def test_bad_friction_input_one_line_error(scene, overrides, fragment) -> None:
     assert fragment in msg and "\n" not in msg, msg
 
 
-@pytest.mark.serial
 @pytest.mark.mpi
-def test_serial_and_two_ranks_agree(tmp_path) -> None:
-    """The sliding block under mpiexec -n 2 (its bottom points on both ranks) and serially:
-    the same history to round-off (1e-8 of each column's scale; measured 1e-11)."""
-    args = [str(SLIDING), "--set", "output.every=1", "--no-progress"]
-    serial, par = run_serial_and_two_ranks(args, tmp_path)
+def test_serial_and_two_ranks_agree(shared_tmp, tmp_path) -> None:
+    """The sliding block on two ranks (its bottom points on both ranks) and serially: the
+    same history to round-off (1e-8 of each column's scale; measured 1e-11). In the suite's
+    mpiexec pass (conftest.two_ranks_and_serial)."""
+    serial, par = two_ranks_and_serial(SLIDING, ["output.every=1"], shared_tmp, tmp_path)
     s2 = json.loads((par / "summary.json").read_text())
     assert s2["mpi_size"] == 2
     assert all(n > 0 for n in s2["contact_dofs_per_rank"]), s2["contact_dofs_per_rank"]

@@ -1,14 +1,12 @@
 """Outputs of `crane-fem run`: history.csv, summary.json and the XDMF time series."""
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import meshio
 import numpy as np
 import pytest
-from conftest import COMM
+from conftest import COMM, two_ranks_and_serial
 
 from crane_fem.cli import main
 from crane_fem.io import read_history, read_xdmf
@@ -99,50 +97,35 @@ def test_cli_run_writes_history_summary_xdmf(shared_tmp) -> None:
             assert f.sum() == pytest.approx(hist["contact_force"][k], rel=1e-12, abs=1e-12)
 
 
-@pytest.mark.serial
+#: The bar against the wall (split across ranks), two bars striking each other, Moreau–Jean.
+TWO_RANK_CASES = {
+    "wall": ["model.elements=101"],
+    "bars": [
+        "model.elements=60",
+        "contact=[{type='bars', gap=0.001}]",
+        "model.second_bar={length=1.0, elements=40, area=1e-4, velocity=-5.0}",
+        "initial.velocity=5.0",
+    ],
+    "mj": ["integrator.scheme='moreau-jean'", "integrator.theta=1.0", "time.dt_factor=3.0"],
+}
+
+
 @pytest.mark.mpi
-def test_mpiexec_two_ranks_same_histories_as_serial(tmp_path) -> None:
-    """`mpiexec -n 2 crane-fem run` gives the serial histories (bar split across ranks)."""
-    mpiexec = Path(sys.executable).parent / "mpiexec"
-    exe = Path(sys.executable).parent / "crane-fem"
-    cases = {
-        "wall": ["--set", "model.elements=101"],
-        "bars": [
-            "--set",
-            "model.elements=60",
-            "--set",
-            "contact=[{type='bars', gap=0.001}]",
-            "--set",
-            "model.second_bar={length=1.0, elements=40, area=1e-4, velocity=-5.0}",
-            "--set",
-            "initial.velocity=5.0",
-        ],
-        "mj": [
-            "--set",
-            "integrator.scheme='moreau-jean'",
-            "--set",
-            "integrator.theta=1.0",
-            "--set",
-            "time.dt_factor=3.0",
-        ],
-    }
-    for name, extra in cases.items():
-        serial, par = tmp_path / f"{name}1", tmp_path / f"{name}2"
-        base = [str(exe), "run", str(SCENARIO), "--set", "output.xdmf=false", *extra]
-        subprocess.run([*base, "-o", str(serial)], check=True, capture_output=True)
-        subprocess.run(
-            [str(mpiexec), "-n", "2", *base, "-o", str(par)], check=True, capture_output=True
-        )
-        h1, h2 = read_history(serial / "history.csv"), read_history(par / "history.csv")
-        assert json.loads((par / "summary.json").read_text())["mpi_size"] == 2
-        assert h1.keys() == h2.keys()
-        energy_scale = np.max(np.abs(h1["total"]))
-        for col in h1:
-            # Same algorithm, different summation order in SpMV and reductions: round-off.
-            # Energies are parts of one balance: their round-off is relative to the total
-            # (a stiff body in rigid motion has ε K u² of round-off in its strain energy).
-            scale = energy_scale if col in ENERGIES else max(np.max(np.abs(h1[col])), 1e-300)
-            assert np.max(np.abs(h1[col] - h2[col])) <= 1e-10 * scale, (name, col)
+@pytest.mark.parametrize("name", list(TWO_RANK_CASES))
+def test_two_ranks_same_histories_as_serial(name, shared_tmp, tmp_path) -> None:
+    """`crane-fem run` on two ranks gives the serial histories (bar split across ranks); in
+    the suite's mpiexec pass (conftest.two_ranks_and_serial)."""
+    sets = ["output.xdmf=false", *TWO_RANK_CASES[name]]
+    serial, par = two_ranks_and_serial(SCENARIO, sets, shared_tmp, tmp_path)
+    h1, h2 = read_history(serial / "history.csv"), read_history(par / "history.csv")
+    assert h1.keys() == h2.keys()
+    energy_scale = np.max(np.abs(h1["total"]))
+    for col in h1:
+        # Same algorithm, different summation order in SpMV and reductions: round-off.
+        # Energies are parts of one balance: their round-off is relative to the total
+        # (a stiff body in rigid motion has ε K u² of round-off in its strain energy).
+        scale = energy_scale if col in ENERGIES else max(np.max(np.abs(h1[col])), 1e-300)
+        assert np.max(np.abs(h1[col] - h2[col])) <= 1e-10 * scale, (name, col)
 
 
 QUICK = Path(__file__).parent.parent / "demos" / "crane_quick.toml"

@@ -140,6 +140,7 @@ def test_reduced_newmark_in_its_modes_equals_the_dense_form() -> None:
 
 
 # ----------------------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.serial
 def test_quick_crane_reduced_side_follows_the_full_side(tmp_path) -> None:
     """The quick crane (GC, m = 100) with the bridge reduced to 100 fixed-interface modes
@@ -169,6 +170,7 @@ def test_quick_crane_reduced_side_follows_the_full_side(tmp_path) -> None:
 BOX = DEMOS / "box_beam.toml"
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 @pytest.mark.parametrize(
     ("scene", "method", "index", "modes", "columns", "rtol"),
@@ -204,6 +206,7 @@ def test_every_coupling_method_takes_the_reduced_side(
     assert np.linalg.norm(u_r - u_f) <= rtol * np.linalg.norm(u_f)
 
 
+@pytest.mark.slow
 @pytest.mark.serial
 @pytest.mark.mpi
 def test_reduced_side_mpiexec_same_histories(tmp_path) -> None:

@@ -8,11 +8,10 @@ import os
 import shutil
 import subprocess
 import sys
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import pytest
-from conftest import COMM, mpiexec_env
+from conftest import COMM, jobs_on_two_ranks, mpiexec_env
 
 from crane_fem import _compat
 from crane_fem.cli import main
@@ -283,18 +282,13 @@ def _write_hexahedra(path: Path) -> None:
         gmsh.finalize()
 
 
-def _spawn(args: list[str]) -> subprocess.CompletedProcess[str]:
-    cmd = [str(BIN / "mpiexec"), "-n", "2", str(BIN / "crane-fem"), *args]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=120, env=mpiexec_env())
-
-
 @pytest.fixture(scope="module")
 def mpiexec_errors(tmp_path_factory):
-    """Every bad input under `mpiexec -n 2`, three jobs at a time (most end in a second)."""
+    """Every bad input on two ranks: each case's `crane-fem` command, in one `mpiexec -n 2`
+    job that runs them in turn (conftest.jobs_on_two_ranks)."""
     tmp = tmp_path_factory.mktemp("bad_inputs")
     cases = _cases(tmp)
-    with ThreadPoolExecutor(max_workers=3) as pool:
-        done = dict(zip(cases, pool.map(_spawn, [a for a, _ in cases.values()]), strict=True))
+    done = jobs_on_two_ranks({name: args for name, (args, _) in cases.items()}, tmp / "job")
     yield {name: (done[name], fragments) for name, (_, fragments) in cases.items()}
     for ro in tmp.glob("read_only"):
         ro.chmod(0o700)
@@ -303,19 +297,20 @@ def mpiexec_errors(tmp_path_factory):
 @pytest.mark.serial
 def test_bad_inputs_one_line_on_every_rank_under_mpiexec(mpiexec_errors) -> None:
     """At least ten bad inputs of the crane scene: each ends with exit code 2 and the same one
-    line on each of the two ranks, naming the key or the file, no traceback, no hang (a
-    timeout would raise)."""
+    line on each of the two ranks, naming the key or the file, no traceback, nothing on
+    stdout, no hang (a timeout would raise)."""
     assert len(mpiexec_errors) >= 10
-    for name, (res, fragments) in mpiexec_errors.items():
-        lines = res.stderr.strip().splitlines()
-        assert res.returncode == 2, (name, res.returncode, res.stderr)
-        assert len(lines) == 2 and lines[0] == lines[1], (name, res.stderr)
-        assert lines[0].startswith("crane-fem: error: "), (name, lines[0])
-        assert "Traceback" not in res.stderr and res.stdout == "", (name, res.stdout)
+    for name, (ranks, fragments) in mpiexec_errors.items():
+        lines = [r.err.strip().splitlines() for r in ranks]
+        assert [r.code for r in ranks] == [2, 2], (name, ranks)
+        assert [len(x) for x in lines] == [1, 1] and lines[0] == lines[1], (name, ranks)
+        line = lines[0][0]
+        assert line.startswith("crane-fem: error: "), (name, line)
+        assert all("Traceback" not in r.err and r.out == "" for r in ranks), (name, ranks)
         for f in fragments:
-            assert f in lines[0], (name, f, lines[0])
-        assert "more problem" not in lines[0] and "[also" not in lines[0], (name, lines[0])
-        assert "np." not in lines[0], (name, lines[0])  # plain numbers, not numpy reprs
+            assert f in line, (name, f, line)
+        assert "more problem" not in line and "[also" not in line, (name, line)
+        assert "np." not in line, (name, line)  # plain numbers, not numpy reprs
 
 
 def test_check_names_what_will_run(capsys) -> None:
