@@ -375,8 +375,10 @@ def run_steps(z: Zone, op: InterfaceOp, st: ZoneState, ctl: Steps, out: StepsOut
     out.impulse_trap[:] = 0.0
     out.impulse_sum[:] = 0.0
     out.flags[:] = 0
+    # One call site with the same argument types at every step: numba compiles _micro once
+    # (a second call site passing the literal True compiled it twice: half of the kernels'
+    # first compilation).
+    h, move = ctl.h0, ctl.move0  # the first step's; every later step's: Δt, moving
     for jj in range(ctl.n):
-        if jj == 0:
-            _micro(z, op, st, ctl, out, jj, ctl.h0, ctl.move0)
-        else:
-            _micro(z, op, st, ctl, out, jj, z.dt, True)
+        _micro(z, op, st, ctl, out, jj, h, move)
+        h, move = z.dt, True

@@ -34,6 +34,19 @@ MAX_SWEEPS = 2000
 
 
 @numba.njit(cache=True)
+def _w_times(W: FloatArray, r: FloatArray, q: FloatArray) -> FloatArray:
+    """W r + q by rows (no BLAS call: the problems are a few rows)."""
+    m = q.size
+    u = np.empty(m)
+    for i in range(m):
+        s = 0.0
+        for j in range(m):
+            s += W[i, j] * r[j]
+        u[i] = s + q[i]
+    return u
+
+
+@numba.njit(cache=True)
 def _alart_curnier(
     W: FloatArray,
     q: FloatArray,
@@ -45,7 +58,7 @@ def _alart_curnier(
 ) -> float:
     """Φ(r) of (7.1) into ``phi``, a generalized Jacobian into ``J``; returns ½‖Φ‖²."""
     m = q.size
-    u = W @ r + q
+    u = _w_times(W, r, q)
     J[:, :] = 0.0
     for a in range(ptr.size - 1):
         i0, i1 = ptr[a], ptr[a + 1]
@@ -127,7 +140,7 @@ def _residual_point(W: FloatArray, q: FloatArray, mu: float, r: FloatArray) -> f
     point, relative to its impulse scale."""
     m = q.size
     rho = 1.0 / W[0, 0]
-    u = W @ r + q
+    u = _w_times(W, r, q)
     ut2 = 0.0
     for i in range(1, m):
         ut2 += u[i] * u[i]
@@ -210,19 +223,79 @@ def _slip_angles(W: FloatArray, q: FloatArray, mu: float) -> FloatArray:
     return phis[:n]
 
 
+Block3 = tuple[float, float, float, float, float, float, float, float, float]
+Vec3 = tuple[float, float, float]
+
+
 @numba.njit(cache=True)
-def _cramer3(W: FloatArray, q: FloatArray) -> FloatArray:
-    """−W⁻¹ q of a 3 × 3 block by Cramer's rule."""
-    a, b, c = W[0, 0], W[0, 1], W[0, 2]
-    d, e, f = W[1, 0], W[1, 1], W[1, 2]
-    g, h, i = W[2, 0], W[2, 1], W[2, 2]
+def _residual3(W: Block3, q: Vec3, mu: float, r0: float, r1: float, r2: float) -> float:
+    """:func:`_residual_point` of a point with two tangential rows, on scalars (``W`` its
+    3 × 3 block row by row)."""
+    w00, w01, w02, w10, w11, w12, w20, w21, w22 = W
+    rho = 1.0 / w00
+    u0 = (w00 * r0 + w01 * r1 + w02 * r2) + q[0]
+    u1 = (w10 * r0 + w11 * r1 + w12 * r2) + q[1]
+    u2 = (w20 * r0 + w21 * r1 + w22 * r2) + q[2]
+    x0 = r0 - rho * (u0 + mu * np.sqrt(u1 * u1 + u2 * u2))
+    x1 = r1 - rho * u1
+    x2 = r2 - rho * u2
+    p0 = p1 = p2 = 0.0
+    if mu == 0.0:
+        p0 = max(0.0, x0)
+    else:
+        nt = np.sqrt(x1 * x1 + x2 * x2)
+        if nt <= mu * x0:
+            p0, p1, p2 = x0, x1, x2
+        elif mu * nt > -x0:
+            a = (x0 + mu * nt) / (1.0 + mu * mu)
+            p0 = a
+            p1 = mu * a * x1 / nt
+            p2 = mu * a * x2 / nt
+    err = max(abs(r0 - p0), max(abs(r1 - p1), abs(r2 - p2)))
+    scale = max(abs(q[0]) * rho, max(abs(q[1]) * rho, abs(q[2]) * rho))
+    return err / scale if scale > 0.0 else err
+
+
+@numba.njit(cache=True)
+def _solve_point3(W: Block3, q: Vec3, mu: float) -> tuple[bool, float, float, float]:
+    """:func:`solve_point`'s first candidates for a 3 × 3 block ``W`` (row by row; q_n < 0,
+    μ > 0) on scalars, without an allocation: stick by Cramer's rule, else the slip angle
+    polished from the stick impulse's direction (:func:`_slip_coefficients`,
+    :func:`_polish`). Returns (solved to round-off, r); not solved: the caller enumerates."""
+    a, b, c, d, e, f, g, h, i = W
     A, B, C = e * i - f * h, f * g - d * i, d * h - e * g
     det = a * A + b * B + c * C
-    out = np.empty(3)
-    out[0] = -(A * q[0] + (c * h - b * i) * q[1] + (b * f - c * e) * q[2]) / det
-    out[1] = -(B * q[0] + (a * i - c * g) * q[1] + (c * d - a * f) * q[2]) / det
-    out[2] = -(C * q[0] + (b * g - a * h) * q[1] + (a * e - b * d) * q[2]) / det
-    return out
+    s0 = -(A * q[0] + (c * h - b * i) * q[1] + (b * f - c * e) * q[2]) / det
+    s1 = -(B * q[0] + (a * i - c * g) * q[1] + (c * d - a * f) * q[2]) / det
+    s2 = -(C * q[0] + (b * g - a * h) * q[1] + (a * e - b * d) * q[2]) / det
+    st2 = s1 * s1 + s2 * s2
+    if s0 > 0.0 and np.sqrt(st2) <= mu * s0:
+        return True, s0, s1, s2
+    if st2 <= 0.0:
+        return False, 0.0, 0.0, 0.0
+    qn, qt0, qt1 = q
+    a1 = qn * g - a * qt1
+    a2 = -qn * d + a * qt0
+    b11 = -qn * mu * f + mu * d * qt1
+    b12 = qn * mu * (e - i) - mu * d * qt0 + mu * g * qt1
+    b22 = qn * mu * f - mu * g * qt0
+    ph = np.arctan2(-s2, -s1)
+    for _ in range(8):
+        co, si = np.cos(ph), np.sin(ph)
+        val = a1 * co + a2 * si + b11 * co * co + b12 * co * si + b22 * si * si
+        der = -a1 * si + a2 * co - 2 * b11 * co * si + b12 * (co * co - si * si) + 2 * b22 * si * co
+        if der == 0.0:
+            break
+        ph -= val / der
+    co, si = np.cos(ph), np.sin(ph)
+    an = a - mu * (b * co + c * si)
+    if an == 0.0 or -qn / an <= 0.0:
+        return False, 0.0, 0.0, 0.0
+    rn = -qn / an
+    c0, c1, c2 = rn, -mu * rn * co, -mu * rn * si
+    if _residual3(W, q, mu, c0, c1, c2) <= 10 * TOL:
+        return True, c0, c1, c2
+    return False, 0.0, 0.0, 0.0
 
 
 @numba.njit(cache=True)
@@ -231,8 +304,11 @@ def solve_point(
 ) -> bool:
     """(crane_fem.contact.friction.solve_point) the exact impulse r of one point with any
     Delassus block W: separation, stick, or the slip candidate of smallest residual.
-    Returns whether it solves the problem to round-off. ``small``: the stick impulse of a
-    3 × 3 block by Cramer's rule (a beam's wheel: LAPACK's call costs more than the solve)."""
+    Returns whether it solves the problem to round-off. ``small``: a 3 × 3 block's stick
+    impulse by Cramer's rule, then first the slip angle nearest the stick impulse's
+    direction (:func:`_solve_point3`; a beam's wheel: LAPACK's call costs more than the
+    solve, the quartic's roots a complex eigenvalue problem, ten times the rest of the
+    step)."""
     m = q.size
     for i in range(m):
         r[i] = 0.0
@@ -241,28 +317,19 @@ def solve_point(
     if m == 1 or mu == 0.0:
         r[0] = -q[0] / W[0, 0]
         return True
-    stick = _cramer3(W, q) if small and m == 3 else -np.linalg.solve(W, q)
-    st2 = 0.0
-    for i in range(1, m):
-        st2 += stick[i] * stick[i]
-    if stick[0] > 0.0 and np.sqrt(st2) <= mu * stick[0]:
-        r[:] = stick
-        return True
-    if small and m == 3 and st2 > 0.0:
-        # Sliding: first the slip angle nearest the stick impulse's direction (the quartic's
-        # roots cost a complex eigenvalue problem, ten times the rest of the step), taken
-        # when it solves the point to round-off.
-        f = _slip_coefficients(W, q, mu)
-        ph = _polish(f, np.arctan2(-stick[2], -stick[1]))
-        c, s = np.cos(ph), np.sin(ph)
-        a = W[0, 0] - mu * (W[0, 1] * c + W[0, 2] * s)
-        if a != 0.0 and -q[0] / a > 0.0:
-            rn = -q[0] / a
-            cand = np.empty(3)
-            cand[0], cand[1], cand[2] = rn, -mu * rn * c, -mu * rn * s
-            if _residual_point(W, q, mu, cand) <= 10 * TOL:
-                r[:] = cand
-                return True
+    if small and m == 3:
+        W9 = (W[0, 0], W[0, 1], W[0, 2], W[1, 0], W[1, 1], W[1, 2], W[2, 0], W[2, 1], W[2, 2])
+        ok, r[0], r[1], r[2] = _solve_point3(W9, (q[0], q[1], q[2]), mu)
+        if ok:
+            return True
+    else:
+        stick = -np.linalg.solve(W, q)
+        st2 = 0.0
+        for i in range(1, m):
+            st2 += stick[i] * stick[i]
+        if stick[0] > 0.0 and np.sqrt(st2) <= mu * stick[0]:
+            r[:] = stick
+            return True
     if m == 2:
         dirs = np.array([[1.0, 0.0], [-1.0, 0.0]])
     else:
@@ -363,7 +430,7 @@ def solve_coulomb(
                     for j in range(m):
                         if j < i0 or j >= i1:
                             qa[i - i0] += W[i, j] * r[j]
-                solve_point(np.ascontiguousarray(W[i0:i1, i0:i1]), qa, mu[a], r[i0:i1])
+                solve_point(np.ascontiguousarray(W[i0:i1, i0:i1]), qa, mu[a], r[i0:i1], False)
             _alart_curnier(W, q, ptr, mu, r, phi, J)
             res = 0.0
             for i in range(m):
@@ -401,6 +468,11 @@ def contacts_friction(
         lam_c[c] = 0.0
     for k in range(lam_t.size):
         lam_t[k] = 0.0
+    any_closed = False
+    for c in range(pc):
+        any_closed = any_closed or closed[c]
+    if not any_closed:  # (in flight: nothing to solve)
+        return
     if z.fric_local:
         for c in range(pc):
             if closed[c]:
@@ -456,6 +528,16 @@ def _single(z: Zone, st: ZoneState, c: int, lam_c: FloatArray, flags: IntArray) 
             for k in range(nk):
                 lam_t[k0 + k] = (-qt[k0 + k] / w) * f
         return
+    if nk == 2 and z.bs == 6 and qc[c] < 0.0 and z.mu[c] != 0.0:
+        # A beam's wheel: its 3 × 3 problem on scalars (no allocation), the general path
+        # only where its first candidates fail.
+        t0, t1 = k0, k0 + 1
+        wn0, wn1 = z.W_nt[c, t0], z.W_nt[c, t1]
+        W9 = (w, wn0, wn1, wn0, z.W_tt[t0, t0], z.W_tt[t0, t1], wn1, z.W_tt[t1, t0], z.W_tt[t1, t1])
+        ok, r0, r1, r2 = _solve_point3(W9, (qc[c], qt[t0], qt[t1]), z.mu[c])
+        if ok:
+            lam_c[c], lam_t[t0], lam_t[t1] = r0, r1, r2
+            return
     Wl = np.empty((nk + 1, nk + 1))
     ql = np.empty(nk + 1)
     Wl[0, 0] = w

@@ -1,6 +1,8 @@
 """The stiffness product of the explicit kernel fused with the free velocity update (THEORY.md
 §1, (1.2)) and its energy sums: one pass over the block CSR stiffness per micro step, in
-PETSc's summation order (bs = 3 blocks, bs = 1 scalars; any bs with stiffness damping)."""
+PETSc's summation order (bs = 3 blocks, bs = 1 scalars; any bs with stiffness damping), or,
+on a serial zone with bs = 3, over K's upper block triangle only (half the memory traffic:
+the stress-grade crane's K no longer fits in a core's L2 cache, its upper triangle does)."""
 
 from __future__ import annotations
 
@@ -100,6 +102,92 @@ def _rows3(
         ku_out[i] = s0
         ku_out[i + 1] = s1
         ku_out[i + 2] = s2
+        ext += ((v0 + w0) * f0 + (v1 + w1) * f1) + (v2 + w2) * f2
+        damp += ((v0 + w0) * c0 + (v1 + w1) * c1) + (v2 + w2) * c2
+    return ext, damp
+
+
+@numba.njit(cache=True, fastmath={"contract"})
+def _rows3_upper(
+    ptr: IntArray,
+    idx: npt.NDArray[np.int32],
+    dat: FloatArray,
+    u: FloatArray,
+    vh: FloatArray,
+    ku: FloatArray,
+    minv: FloatArray,
+    mass: FloatArray,
+    base: FloatArray,
+    shapes: FloatArray,
+    coef: FloatArray,
+    alpha: float,
+    h: float,
+) -> tuple[float, float]:
+    """:func:`_rows3` on every block row of a serial zone from K's upper block triangle
+    (crane_fem.kernels.zone.upper_blocks): row r's block (r, c > r) adds A u_c to row r and
+    Aᵀ u_r to row c, accumulated in ``ku``; rows are taken in order, so row r's sum is
+    complete once its own blocks are, and its update follows at once. The sums differ from
+    PETSc's order by round-off (fused multiply-adds)."""
+    nb = ptr.size - 1
+    for i in range(3 * nb):
+        ku[i] = 0.0
+    ext = 0.0
+    damp = 0.0
+    n_shape = coef.size
+    for r in range(nb):
+        i = 3 * r
+        r0 = u[i]
+        r1 = u[i + 1]
+        r2 = u[i + 2]
+        j0 = ptr[r]
+        b = 9 * j0  # the diagonal block
+        s0 = ku[i] + (dat[b] * r0 + dat[b + 1] * r1 + dat[b + 2] * r2)
+        s1 = ku[i + 1] + (dat[b + 3] * r0 + dat[b + 4] * r1 + dat[b + 5] * r2)
+        s2 = ku[i + 2] + (dat[b + 6] * r0 + dat[b + 7] * r1 + dat[b + 8] * r2)
+        for jj in range(j0 + 1, ptr[r + 1]):
+            c = 3 * idx[jj]
+            b = 9 * jj
+            x0 = u[c]
+            x1 = u[c + 1]
+            x2 = u[c + 2]
+            a00 = dat[b]
+            a01 = dat[b + 1]
+            a02 = dat[b + 2]
+            a10 = dat[b + 3]
+            a11 = dat[b + 4]
+            a12 = dat[b + 5]
+            a20 = dat[b + 6]
+            a21 = dat[b + 7]
+            a22 = dat[b + 8]
+            s0 += a00 * x0 + a01 * x1 + a02 * x2
+            s1 += a10 * x0 + a11 * x1 + a12 * x2
+            s2 += a20 * x0 + a21 * x1 + a22 * x2
+            ku[c] += a00 * r0 + a10 * r1 + a20 * r2
+            ku[c + 1] += a01 * r0 + a11 * r1 + a21 * r2
+            ku[c + 2] += a02 * r0 + a12 * r1 + a22 * r2
+        f0 = base[i]
+        f1 = base[i + 1]
+        f2 = base[i + 2]
+        for k in range(n_shape):
+            ck = coef[k]
+            f0 = f0 + ck * shapes[k, i]
+            f1 = f1 + ck * shapes[k, i + 1]
+            f2 = f2 + ck * shapes[k, i + 2]
+        v0 = vh[i]
+        v1 = vh[i + 1]
+        v2 = vh[i + 2]
+        c0 = alpha * mass[i] * v0
+        c1 = alpha * mass[i + 1] * v1
+        c2 = alpha * mass[i + 2] * v2
+        w0 = v0 + h * minv[i] * (f0 - s0 - c0)
+        w1 = v1 + h * minv[i + 1] * (f1 - s1 - c1)
+        w2 = v2 + h * minv[i + 2] * (f2 - s2 - c2)
+        vh[i] = w0
+        vh[i + 1] = w1
+        vh[i + 2] = w2
+        ku[i] = s0
+        ku[i + 1] = s1
+        ku[i + 2] = s2
         ext += ((v0 + w0) * f0 + (v1 + w1) * f1) + (v2 + w2) * f2
         damp += ((v0 + w0) * c0 + (v1 + w1) * c1) + (v2 + w2) * c2
     return ext, damp
@@ -211,6 +299,23 @@ def free_rows(
             z.alpha,
             h,
             rows,
+        )
+    if z.bs == 3 and z.beta == 0.0 and z.u_indptr.size == rows.size + 1:
+        # (a serial zone: ``rows`` are all its block rows, in order)
+        return _rows3_upper(
+            z.u_indptr,
+            z.u_indices,
+            z.u_data,
+            st.u,
+            st.vh,
+            st.ku,
+            z.minv,
+            z.mass,
+            z.load_base,
+            z.load_shapes,
+            coef,
+            z.alpha,
+            h,
         )
     if z.bs == 3 and z.beta == 0.0:
         return _rows3(

@@ -29,11 +29,13 @@ __all__ = [
     "NONE",
     "PHYS_WORK",
     "SOLVED",
+    "UPPER_TRIANGLE",
     "InterfaceOp",
     "Steps",
     "StepsOut",
     "Zone",
     "ZoneState",
+    "upper_blocks",
 ]
 
 FloatArray = npt.NDArray[np.float64]
@@ -51,8 +53,8 @@ EXT, DAMP, CONTACT, LINK, GC_WORK, PHYS_WORK, FRICTION = range(7)
 CHANGED, MPI_ERROR, LCP_ERROR, FRICTION_ERROR, CLOSED = range(5)
 
 
-class Zone(NamedTuple):
-    """The static arrays of an explicit subdomain (built once)."""
+class _ZoneFields(NamedTuple):
+    """The static arrays of an explicit subdomain (built once): :class:`Zone`'s fields."""
 
     bs: int
     n_own: int
@@ -140,6 +142,59 @@ class Zone(NamedTuple):
     s_indptr: IntArray = np.zeros(0, dtype=np.int64)
     s_indices: IntArray = np.zeros(0, dtype=np.int64)
     s_data: FloatArray = np.zeros(0)
+    #: K's upper block triangle (block CSR, each row's diagonal block first, then its blocks
+    #: right of the diagonal in column order; ``u_data`` flat, 9 values a block, row-major),
+    #: for a serial zone with bs = 3 and no stiffness damping: the product then reads half
+    #: of K (stiffness.py). Derived by :class:`Zone` from ``indptr``, ``indices``, ``data``;
+    #: empty otherwise.
+    u_indptr: IntArray = np.zeros(0, dtype=np.int64)
+    u_indices: npt.NDArray[np.int32] = np.zeros(0, dtype=np.int32)
+    u_data: FloatArray = np.zeros(0)
+
+
+#: Whether :class:`Zone` derives K's upper block triangle where it can (False: every zone
+#: takes the full block CSR product, in PETSc's order: bit for bit the Python path's).
+UPPER_TRIANGLE = True
+
+
+def upper_blocks(
+    indptr: IntArray, indices: IntArray, data: FloatArray
+) -> tuple[IntArray, npt.NDArray[np.int32], FloatArray] | None:
+    """K's upper block triangle in the layout of :attr:`Zone.u_indptr` (``indices`` local
+    block columns; ``data`` (nnzb, 3, 3)), or None where a row has no diagonal block or a
+    column is a ghost's (a zone that spans ranks). K's two triangles agree to round-off
+    (the assembled element matrices are symmetric to round-off): the product of the upper
+    one and its transpose is K's to round-off."""
+    nb = indptr.size - 1
+    rows = np.repeat(np.arange(nb, dtype=np.int64), np.diff(indptr))
+    if indices.size == 0 or int(indices.max()) >= nb:
+        return None
+    keep = indices >= rows
+    r, c, a = rows[keep], indices[keep], data[keep]
+    order = np.lexsort((c, r))
+    r, c, a = r[order], c[order], a[order]
+    ptr = np.zeros(nb + 1, dtype=np.int64)
+    ptr[1:] = np.cumsum(np.bincount(r, minlength=nb))
+    if np.any(np.diff(ptr) == 0) or np.any(c[ptr[:-1]] != np.arange(nb)):
+        return None
+    return ptr, c.astype(np.int32), np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
+
+
+class Zone(_ZoneFields):
+    """The static arrays of an explicit subdomain (built once). A serial zone with bs = 3
+    and no stiffness damping gets K's upper block triangle (``u_*``) at construction, unless
+    given."""
+
+    __slots__ = ()
+
+    def __new__(cls, *args: Any, **kwargs: Any) -> Zone:
+        self = super().__new__(cls, *args, **kwargs)
+        eligible = UPPER_TRIANGLE and self.bs == 3 and self.beta == 0.0 and self.nranks == 1
+        if eligible and self.u_indptr.size == 0 and self.boundary.size == 0:
+            upper = upper_blocks(self.indptr, self.indices, self.data)
+            if upper is not None:
+                self = self._replace(u_indptr=upper[0], u_indices=upper[1], u_data=upper[2])
+        return self
 
 
 class ZoneState(NamedTuple):
