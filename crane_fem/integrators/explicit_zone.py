@@ -421,6 +421,10 @@ class ExplicitZone:
             s_indptr=np.asarray(scalar.indptr if beam else np.zeros(0), dtype=np.int64),
             s_indices=np.asarray(scalar.indices if beam else np.zeros(0), dtype=np.int64),
             s_data=np.asarray(scalar.data if beam else np.zeros(0), dtype=np.float64),
+            s_rows=np.repeat(
+                np.arange(n_own if beam else 0, dtype=np.int64),
+                np.diff(scalar.indptr) if beam else np.zeros(0, dtype=np.int64),
+            ),
             **relation,
         )
         n_loc = n_loc_b * bs
@@ -445,6 +449,7 @@ class ExplicitZone:
             send_buf=np.zeros(si.size),
             recv_buf=np.zeros(ri.size),
             requests=create_requests(2 * nbrs.size),
+            load=np.zeros(n_own if beam else 0),
         )
         self._no_op = empty_operator(n_g)
         # Compile (or load from the cache) the kernel now, in the set-up: a call of no step.

@@ -142,6 +142,9 @@ class _ZoneFields(NamedTuple):
     s_indptr: IntArray = np.zeros(0, dtype=np.int64)
     s_indices: IntArray = np.zeros(0, dtype=np.int64)
     s_data: FloatArray = np.zeros(0)
+    #: The row of each of those nonzeros (the serial beam product runs over them in one
+    #: loop: a frame's rows hold 1–12 nonzeros, too few for a loop per row).
+    s_rows: IntArray = np.zeros(0, dtype=np.int64)
     #: K's upper block triangle (block CSR, each row's diagonal block first, then its blocks
     #: right of the diagonal in column order; ``u_data`` flat, 9 values a block, row-major),
     #: for a serial zone with bs = 3 and no stiffness damping: the product then reads half
@@ -224,6 +227,8 @@ class ZoneState(NamedTuple):
     send_buf: FloatArray
     recv_buf: FloatArray
     requests: npt.NDArray[Any]
+    #: F(t_j) on the owned DOFs: the serial beam product's scratch (empty otherwise).
+    load: FloatArray = np.zeros(0)
 
 
 class InterfaceOp(NamedTuple):
