@@ -98,8 +98,15 @@ class ContactPeaks:
         self.peak_time[better] = t[j][better]
         np.maximum(self.max_gap, gap.max(axis=0), out=self.max_gap)
         off = gap > LIFT_GAP
+        # Where each group opens or closes in this trace (after its state at the last one):
+        # a group in flight throughout (a flange, clear of its rail side) only rises.
+        turns = (off != np.concatenate([self._flying[None, :], off[:-1]])).any(axis=0)
+        aloft = np.flatnonzero(self._flying & ~turns)
+        if aloft.size:
+            high = gap[:, aloft].max(axis=0, initial=0.0)
+            self._height[aloft] = np.where(high > self._height[aloft], high, self._height[aloft])
         landings: dict[int, list[int]] = {}
-        for g in np.flatnonzero(off.any(axis=0) | self._flying).tolist():
+        for g in np.flatnonzero(turns).tolist():
             landings[g] = self._separations(g, t, off[:, g], gap[:, g])
         following = set(np.flatnonzero(self._awaiting | self._striking).tolist())
         for k in sorted(following | {g for g, v in landings.items() if v}):
@@ -186,21 +193,27 @@ class ContactPeaks:
         off: npt.NDArray[np.bool_],
         gap: FloatArray,
     ) -> list[int]:
-        """Close and open group k's separations over one trace (a loop over its few edges);
+        """Close and open group k's separations over one trace (a loop over its edges);
         the trace steps where a lift-off landed."""
         edges = np.flatnonzero(np.diff(np.r_[np.int8(self._flying[k]), off.astype(np.int8)]))
-        a = 0
+        # The largest gap (at least 0) of each stretch of the trace between its edges, at
+        # once: stretch i ends at edge i (the last runs to the trace's end); a separation
+        # rises over the stretch that ends where it closes.
+        starts = np.r_[0, edges]
+        tops = np.maximum(0.0, np.maximum.reduceat(gap, starts)).tolist()
+        if edges.size and edges[0] == 0:
+            tops[0] = 0.0  # (an empty stretch)
+        opens = off[edges].tolist()
         landed: list[int] = []
-        for e in edges.tolist():
-            if off[e]:  # a separation starts at step e
+        for i, e in enumerate(edges.tolist()):
+            if opens[i]:  # a separation starts at step e
                 self._flying[k], self._onset[k], self._height[k] = True, t[e], 0.0
-                a = e
             else:  # it ended at step e − 1
-                self._height[k] = max(self._height[k], float(gap[a:e].max(initial=0.0)))
+                self._height[k] = max(self._height[k], tops[i])
                 if self._land(k, float(t[e - 1]) if e > 0 else self._t_last):
                     landed.append(e)
         if self._flying[k]:
-            self._height[k] = max(self._height[k], float(gap[a:].max(initial=0.0)))
+            self._height[k] = max(self._height[k], tops[-1])
         return landed
 
     def _land(self, k: int, t_end: float) -> bool:

@@ -59,21 +59,25 @@ class CellStress:
         vm = self.evaluate(u)[cells]
         local = np.zeros(n_labels)
         where = np.zeros((n_labels, 3))
-        mesh = self.mesh
+        # Each label's cells in their order (a stable sort), its first largest value.
+        order = np.argsort(labels, kind="stable")
+        bounds = np.searchsorted(labels[order], np.arange(n_labels + 1)).tolist()
+        ks, js = [], []
         for k in range(n_labels):
-            sel = np.flatnonzero(labels == k)
-            if sel.size == 0:
-                continue
-            j = sel[int(np.argmax(vm[sel]))]
-            local[k] = vm[j]
-            mid = dolfinx.mesh.compute_midpoints(mesh, mesh.topology.dim, cells[j : j + 1])
-            where[k, : mid.shape[1]] = mid[0]
-        gathered = comm.allgather((local, where))
+            a, b = bounds[k], bounds[k + 1]
+            if a < b:
+                ks.append(k)
+                js.append(order[a + int(np.argmax(vm[order[a:b]]))])
+        if ks:
+            local[ks] = vm[js]
+            mesh = self.mesh
+            mid = dolfinx.mesh.compute_midpoints(mesh, mesh.topology.dim, cells[js])
+            where[ks, : mid.shape[1]] = mid
+        gathered = comm.allgather((local, where)) if comm.size > 1 else [(local, where)]
         values = np.zeros(n_labels)
         at = np.zeros((n_labels, 3))
-        for k in range(n_labels):
-            # The largest value, the lowest rank on a tie (ranks in order: strict >).
-            for vals, wh in gathered:
-                if vals[k] > values[k]:
-                    values[k], at[k] = vals[k], wh[k]
+        # The largest value, the lowest rank on a tie (ranks in order: strict >).
+        for vals, wh in gathered:
+            better = vals > values
+            values[better], at[better] = vals[better], wh[better]
         return values, at

@@ -7,7 +7,6 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 import scipy.linalg
-import scipy.optimize
 
 __all__ = ["solve_lcp", "solve_mixed_lcp", "solve_mixed_lcp_blocks"]
 
@@ -48,7 +47,9 @@ def solve_lcp(
             "contact Delassus operator is singular: two active constraints are redundant"
         ) from None
     b = -scipy.linalg.solve_triangular(R, q[idx], trans="T", lower=False)
-    sol, _ = scipy.optimize.nnls(R, b)
+    from scipy.optimize import nnls  # (here: a quarter of a second at start-up, rarely used)
+
+    sol, _ = nnls(R, b)
     lam[idx] = sol
     return lam
 

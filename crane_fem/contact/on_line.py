@@ -118,14 +118,20 @@ def element_axes(
 
 
 def project_on_line(
-    x: FloatArray, a: FloatArray, b: FloatArray, ends: npt.NDArray[np.bool_] | None = None
+    x: FloatArray,
+    a: FloatArray,
+    b: FloatArray,
+    ends: npt.NDArray[np.bool_] | None = None,
+    allowed: npt.NDArray[np.bool_] | None = None,
 ) -> tuple[IntArray, FloatArray, npt.NDArray[np.bool_]]:
     """Each point of ``x`` (p, 3) on the elements from ``a`` to ``b`` (e, 3): the nearest
     element whose span holds its projection (else, at a kink of the line that leaves a point
     offset above it between two elements' spans, the nearest element's nearer end), its
     abscissa ξ ∈ [0, 1] along it, and whether the point is over the line: not past one of
     its ends. ``ends``: (e, 2) whether each element's first and second vertex ends the line
-    (default: the line is a chain, its ends the vertices of one element only)."""
+    (default: the line is a chain, its ends the vertices of one element only). ``allowed``:
+    (p, e) the elements each point may take (default all: several lines at once, each point
+    on its own)."""
     d = b - a
     length2 = np.einsum("ej,ej->e", d, d)
     rel = x[:, None, :] - a[None, :, :]  # (p, e, 3)
@@ -133,6 +139,9 @@ def project_on_line(
     inside = (s >= -1e-9) & (s <= 1.0 + 1e-9)
     foot = a[None, :, :] + np.clip(s, 0.0, 1.0)[:, :, None] * d[None, :, :]
     dist = np.linalg.norm(x[:, None, :] - foot, axis=2)
+    if allowed is not None:
+        inside &= allowed
+        dist[~allowed] = np.inf
     held = np.where(inside, dist, np.inf)
     rows = np.arange(x.shape[0])
     element = np.argmin(held, axis=1).astype(np.int64)
@@ -259,10 +268,29 @@ class LineContacts:
             or none
         )
         self._ends = [_line_ends(self.X[se[:, 0]], self.X[se[:, 1]]) for se in self._slot_e]
+        # Every family's elements, flat, for the hook's one projection of all points: their
+        # vertex slots, axes and line ends, where each point's family starts in them, and
+        # the elements each point may take (its own line's).
+        n_e = [int(f.elements.shape[0]) for f in families]
+        first = np.r_[0, np.cumsum(n_e)[:-1]] if n_e else np.zeros(0)
+        family_e = np.repeat(np.arange(len(families)), n_e)
+        family_p = np.repeat(np.arange(len(families)), [f.p for f in families])
+        self._allowed = family_p[:, None] == family_e[None, :]
+        self._point_first: IntArray = first[family_p].astype(np.int64)
+        self._cut = np.cumsum([f.p for f in families])[:-1]
+        stack_i = [np.zeros((0, 2), dtype=np.int64)]
+        stack_f = [np.zeros((0, 3))]
+        self._flat_slots = np.concatenate(self._slot_e or stack_i).astype(np.int64)
+        self._flat_ends = np.concatenate(self._ends or [np.zeros((0, 2), dtype=bool)])
+        self._flat_n = np.concatenate([ax[1] for ax in self._axes] or stack_f)
+        self._flat_lat = np.concatenate([ax[2] for ax in self._axes] or stack_f)
         self.repairs = 0
         self.pairings = [self._project(j, self._reference(), 0.0) for j in range(len(families))]
         self.g0 = self._values(self.pairings, self._reference())
         self._along_ref = self._along(self._reference())
+        #: The rows' values at the reference positions for the current pairings (they change
+        #: with the pairings only).
+        self._reference_values = self.g0
 
     # -- geometry (not collective: every rank holds the same coordinates) -------------------
     def _gather(self, local: FloatArray, k: int) -> FloatArray:
@@ -327,14 +355,43 @@ class LineContacts:
         """(ids, 6): the reference positions, no rotation."""
         return np.c_[self.X, np.zeros_like(self.X)]
 
+    def _flat(self, pairings: list[LinePairing]) -> tuple[IntArray, FloatArray]:
+        """Each point's element in the flat list of all families' and its ξ."""
+        if not pairings:
+            return np.zeros(0, dtype=np.int64), np.zeros(0)
+        el = np.concatenate([pr.element for pr in pairings]) + self._point_first
+        return el, np.concatenate([pr.xi for pr in pairings])
+
+    def _project_all(self, x: FloatArray, t: float) -> list[LinePairing]:
+        """Every family's points on the current axes of their lines (``x``: (ids, 6)), in
+        one projection (as :meth:`_project` family by family).
+
+        Raises:
+            SlidingError: a point projects onto no element of its line.
+        """
+        sl = self._flat_slots
+        element, xi, found = project_on_line(
+            x[self._all_points, :3],
+            x[sl[:, 0], :3],
+            x[sl[:, 1], :3],
+            self._flat_ends,
+            self._allowed,
+        )
+        if not np.all(found):  # the first family with a point off its line raises
+            return [self._project(j, x, t) for j in range(len(self.families))]
+        element -= self._point_first
+        return [
+            LinePairing(e, z)
+            for e, z in zip(np.split(element, self._cut), np.split(xi, self._cut), strict=True)
+        ]
+
     def _along(self, x: FloatArray) -> FloatArray:
         """Each point's offset along its element from its paired foot, as a fraction of the
         element's length, at the positions ``x`` (ids, 6) (not collective)."""
         if not self.families:
             return np.zeros(0)
-        el = [pr.element for pr in self.pairings]
-        xi = np.concatenate([pr.xi for pr in self.pairings])
-        ends = np.concatenate([se[e] for se, e in zip(self._slot_e, el, strict=True)])
+        el, xi = self._flat(self.pairings)
+        ends = self._flat_slots[el]
         a, b = x[ends[:, 0], :3], x[ends[:, 1], :3]
         d = b - a
         foot = a + xi[:, None] * d
@@ -347,11 +404,8 @@ class LineContacts:
         points at once (it runs before every macro step)."""
         if not self.families:
             return np.zeros(0)
-        el = [pr.element for pr in pairings]
-        xi = np.concatenate([pr.xi for pr in pairings])
-        n = np.concatenate([ax[1][e] for ax, e in zip(self._axes, el, strict=True)])
-        lat = np.concatenate([ax[2][e] for ax, e in zip(self._axes, el, strict=True)])
-        ends = np.concatenate([se[e] for se, e in zip(self._slot_e, el, strict=True)])
+        el, xi = self._flat(pairings)
+        n, lat, ends = self._flat_n[el], self._flat_lat[el], self._flat_slots[el]
         sp = self._all_points
         N0, N1 = (1.0 - xi)[:, None], xi[:, None]
         rel = x[sp, :3] - N0 * x[ends[:, 0], :3] - N1 * x[ends[:, 1], :3]
@@ -469,19 +523,20 @@ class LineContacts:
             # (the normal motion is in the rows; a drift this small moves a gap by the
             # line's slope times it).
             return False
-        fresh = [self._project(j, x, t) for j in range(len(self.families))]
-        repair = any(
-            bool(np.any((old.element != new.element) | (np.abs(new.xi - old.xi) > REPAIR_FRACTION)))
-            for old, new in zip(self.pairings, fresh, strict=True)
-        )
+        fresh = self._project_all(x, t)
+        (el_old, xi_old), (el_new, xi_new) = self._flat(self.pairings), self._flat(fresh)
+        repair = bool(np.any((el_old != el_new) | (np.abs(xi_new - xi_old) > REPAIR_FRACTION)))
         exact = self._values(fresh, x)
         if repair:
             self.pairings = fresh
             self.repairs += 1
+            self._reference_values = self._values(fresh, self._reference())
+            self._along_ref = self._along(x)
+        else:
+            self._along_ref = along
         # g0 + L u = the current distances, L the active rows (linear in the positions).
-        lu = self._values(self.pairings, x) - self._values(self.pairings, self._reference())
+        lu = self._values(self.pairings, x) - self._reference_values
         self.g0 = exact - lu
-        self._along_ref = self._along(x)
         if repair:
             zone.set_contacts(self.rows())
         else:
@@ -494,17 +549,15 @@ class LineContacts:
     def slip(self, u: FloatArray) -> FloatArray:
         """Each point's displacement relative to the line's point under it, less its normal
         part (p_total, 3), m (collective)."""
+        if not self.families:
+            return np.zeros((0, 3))
         U = self._gather(u.reshape(-1, 6), 6)
-        out = []
-        for j, pairing in enumerate(self.pairings):
-            n_e = self._axes[j][1]
-            el = pairing.element
-            N = np.stack([1.0 - pairing.xi, pairing.xi], axis=1)
-            ends = self._slot_e[j][el]
-            rel = U[self._slot_p[j], :3] - np.einsum("pk,pkj->pj", N, U[ends, :3])
-            n = n_e[el]
-            out.append(rel - np.einsum("pj,pj->p", rel, n)[:, None] * n)
-        return np.concatenate(out) if out else np.zeros((0, 3))
+        el, xi = self._flat(self.pairings)
+        N = np.stack([1.0 - xi, xi], axis=1)
+        rel = U[self._all_points, :3] - np.einsum("pk,pkj->pj", N, U[self._flat_slots[el], :3])
+        n = self._flat_n[el]
+        out: FloatArray = rel - np.einsum("pj,pj->p", rel, n)[:, None] * n
+        return out
 
     def reach(self) -> dict[int, float]:
         """How far each labelled body can slide along its line either way before a point
@@ -548,4 +601,5 @@ class LineContacts:
         ]
         self.g0 = np.asarray(state["g0"], dtype=np.float64)
         self._along_ref = np.asarray(state["along"], dtype=np.float64)
+        self._reference_values = self._values(self.pairings, self._reference())
         zone.set_contacts(self.rows())

@@ -32,10 +32,12 @@ class ContactSlipMonitor:
         self.mean = np.zeros((n, 3))
         self.peak = np.zeros(n)
         self.t_peak = np.zeros(n)
+        self._count = np.maximum(np.bincount(self.group, minlength=n).astype(np.float64), 1.0)
+        self._columns = [f"{name}_slip_{c}" for name in self.names for c in "xyz"]
 
     @property
     def columns(self) -> list[str]:
-        return [f"{name}_slip_{c}" for name in self.names for c in "xyz"]
+        return self._columns
 
     def history_row(self) -> dict[str, float]:
         return dict(zip(self.columns, self.mean.ravel().tolist(), strict=True))
@@ -44,11 +46,8 @@ class ContactSlipMonitor:
         assert rec.explicit_u is not None
         slip = self.sliding.slip(rec.explicit_u)
         n = len(self.names)
-        count = np.bincount(self.group, minlength=n).astype(np.float64)
         for c in range(3):
-            self.mean[:, c] = np.bincount(self.group, weights=slip[:, c], minlength=n) / np.maximum(
-                count, 1.0
-            )
+            self.mean[:, c] = np.bincount(self.group, weights=slip[:, c], minlength=n) / self._count
         size = np.linalg.norm(slip, axis=1)
         peak = np.zeros(n)
         np.maximum.at(peak, self.group, size)

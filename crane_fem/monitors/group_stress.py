@@ -53,10 +53,11 @@ class GroupStress:
         #: A frame's per group largest |N|, |V1|, |V2|, |T|, |M1|, |M2| (none for solids).
         beams = any(hasattr(vm, "last_forces") for _, vm, _, _ in self.sides)
         self.forces = np.zeros((n_g, 6 if beams else 0))
+        self._columns = [f"{g}_von_mises_max" for g in self.groups]
 
     @property
     def columns(self) -> list[str]:
-        return [f"{g}_von_mises_max" for g in self.groups]
+        return self._columns
 
     def history_row(self) -> dict[str, float]:
         return dict(zip(self.columns, self.last.tolist(), strict=True))

@@ -79,7 +79,9 @@ class HistoryRows:
             su = su + u.reshape(-1, bs)[blocks].sum(axis=0)
             sv = sv + v.reshape(-1, bs)[blocks].sum(axis=0)
             cnt += int(blocks.size)
-        tot = comm.allreduce(np.r_[su, sv, cnt], op=MPI.SUM)
+        tot = np.concatenate([su, sv, [cnt]])
+        if comm.size > 1:
+            tot = comm.allreduce(tot, op=MPI.SUM)
         for k in range(bs):
             row[f"probe_u{k}"] = float(tot[k] / max(tot[-1], 1))
             row[f"probe_v{k}"] = float(tot[bs + k] / max(tot[-1], 1))

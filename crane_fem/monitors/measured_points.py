@@ -49,8 +49,6 @@ class MeasuredPoints:
         """Pseudo-acceleration spectra of the input and of the points' absolute motion in
         each direction the ground shakes, to ``spectra.csv`` (rank 0 writes); their settings
         (not collective; the samples are global)."""
-        from crane_fem.spectra import log_periods, response_spectrum, write_spectra_csv
-
         motions = self.motions
         t, series = motions.series()
         spec = self.sim.scenario.spectra
@@ -64,6 +62,9 @@ class MeasuredPoints:
             t, series = t[: odd[0] + 1], {k: v[: odd[0] + 1] for k, v in series.items()}
         if t.size < 3:
             return {}
+        # Imported here: scipy.signal takes seconds, and a run without spectra needs none.
+        from crane_fem.spectra import log_periods, response_spectrum, write_spectra_csv
+
         # The mean accelerations between samples resolve periods down to a few samples.
         periods = log_periods(max(spec.periods[0], 4 * dt), spec.periods[1], spec.count)
         curves = {}

@@ -32,15 +32,17 @@ class SupportsMonitor:
         #: The forces at the last sampled record (n_faces, bs), N (NaN when they were not
         #: evaluated there): the history's columns.
         self.last = np.full((reactions.n_faces, reactions.bs), np.nan)
+        r = reactions
+        names = ["fx", "fy", "fz", "mx", "my", "mz"] if r.bs == 6 else [f"f{c}" for c in "xyz"]
+        self._columns = [
+            f"support{k + 1}_{names[c]}" for k in range(r.n_faces) for c in range(r.bs)
+        ]
 
     @property
     def columns(self) -> list[str]:
         """The history columns: each face's force components (N; a beam's support also its
-        moment, N·m) at the row's instant, NaN at
-        a row where they are not evaluated."""
-        r = self.reactions
-        names = ["fx", "fy", "fz", "mx", "my", "mz"] if r.bs == 6 else [f"f{c}" for c in "xyz"]
-        return [f"support{k + 1}_{names[c]}" for k in range(r.n_faces) for c in range(r.bs)]
+        moment, N·m) at the row's instant, NaN at a row where they are not evaluated."""
+        return self._columns
 
     def history_row(self) -> dict[str, float]:
         return dict(zip(self.columns, self.last.ravel().tolist(), strict=True))

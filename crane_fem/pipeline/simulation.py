@@ -4,6 +4,7 @@ built, and what the driver asks of them."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import numpy.typing as npt
@@ -84,20 +85,28 @@ class Simulation:
         displacement ``u`` and velocity ``v`` (owned DOFs): the motion of the centre of mass
         (collective over the mesh's communicator for a block or a frame; {} otherwise, no
         communication)."""
-        cols = self.mean_motion_columns()
-        if not cols:
+        means = self._means
+        if means is None or u is None or v is None:  # (a frame run on its implicit side alone)
             return {}
-        sub = self.models.explicit
-        if sub is None or u is None or v is None:  # (a frame run on its implicit side alone)
-            return {}
-        bs, n = sub.bs, 3
-        m = sub.model.mass.reshape(-1, bs)[:, :n]
+        cols, bs, m, m_sum = means
+        n = 3
         uu, vv = u.reshape(-1, bs)[:, :n], v.reshape(-1, bs)[:, :n]
-        local = np.r_[(m * uu).sum(axis=0), (m * vv).sum(axis=0)]
-        local = np.r_[local, m.sum(axis=0)]
-        tot = self.mesh.comm.allreduce(local, op=MPI.SUM)
-        mass = np.r_[tot[2 * n :], tot[2 * n :]]
+        local = np.concatenate([(m * uu).sum(axis=0), (m * vv).sum(axis=0), m_sum])
+        comm = self.mesh.comm
+        tot = comm.allreduce(local, op=MPI.SUM) if comm.size > 1 else local
+        mass = np.concatenate([tot[2 * n :], tot[2 * n :]])
         return {c: float(x / w) for c, x, w in zip(cols, tot[: 2 * n], mass, strict=True)}
+
+    @cached_property
+    def _means(self) -> tuple[list[str], int, FloatArray, FloatArray] | None:
+        """What :meth:`mean_motion` reads at every sample: its columns, the block size, the
+        owned translational masses (n, 3) and their sums (None: no mean motion)."""
+        cols = self.mean_motion_columns()
+        sub = self.models.explicit
+        if not cols or sub is None:
+            return None
+        m = sub.model.mass.reshape(-1, sub.bs)[:, :3]
+        return cols, sub.bs, m, m.sum(axis=0)
 
     def destroy(self) -> None:
         self.integrators.destroy()

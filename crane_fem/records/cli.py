@@ -7,10 +7,6 @@ import math
 from pathlib import Path
 
 from crane_fem.errors import CraneFemError, ScenarioError
-from crane_fem.records.matching import Band, longest_period, match_records, matching_range
-from crane_fem.records.report import record_file, write_outputs
-from crane_fem.records.seeds import DEFAULT_SEEDS, check_seed_length, load_seed, plan_variants
-from crane_fem.records.targets import parse_target
 
 __all__ = ["DEFAULT_N", "DEFAULT_PERIODS", "add_parser", "run"]
 
@@ -111,6 +107,13 @@ def run(args: argparse.Namespace) -> int:
         ScenarioError: bad input (a target, a seed, the band, N, the damping), one line.
         CraneFemError: the records do not meet the band (the files are written).
     """
+    # The matching's modules (scipy.signal, reqpy) here, not at the parser's import: every
+    # command builds the parser.
+    from crane_fem.records.matching import Band, longest_period, match_records, matching_range
+    from crane_fem.records.report import record_file, write_outputs
+    from crane_fem.records.seeds import DEFAULT_SEEDS, check_seed_length, load_seed, plan_variants
+    from crane_fem.records.targets import parse_target
+
     if args.records_command != "match":  # pragma: no cover  (argparse allows match only)
         raise ScenarioError(f"unknown records command {args.records_command!r}")
     zeta = float(args.damping)
