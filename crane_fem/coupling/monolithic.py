@@ -58,10 +58,28 @@ class ExplicitAlone(_Alone):
         t0 = s.t
         # t_j as the step-by-step loop computes it: t_{j−1} + Δt with t_{j−1} = (j − 1) Δt.
         times = (i0 + np.arange(n)) * s.dt + s.dt
-        out = E.advance(E.steps(t0, n, mode=kx.NONE, times=times))
-        s.explicit_balance(out)
+        every = s.observe_every if s.observers else 0
+        if not 0 < every < n:
+            out = E.advance(E.steps(t0, n, mode=kx.NONE, times=times))
+            s.explicit_balance(out)
+            s.grid.advance(n)
+            return s.record(out.lam, out.gaps, s.micro_trace(t0, out))
+        # Observed between records (a peak on a finer interval than the sampling's): the
+        # same micro steps in pieces of ``every``, each booked as the whole would be.
+        traces = []
+        for j in range(0, n, every):
+            k = min(every, n - j)
+            tj = t0 + j * s.dt
+            out = E.advance(E.steps(tj, k, mode=kx.NONE, times=times[j : j + k]))
+            s.explicit_balance(out)
+            traces.append(s.micro_trace(tj, out))
+            if j + k < n:
+                s.grid.i = i0 + j + k  # the clock at the observed state, restored below
+                for observe in s.observers:
+                    observe(s)
+                s.grid.i = i0
         s.grid.advance(n)
-        return s.record(out.lam, out.gaps, s.micro_trace(t0, out))
+        return s.record(out.lam, out.gaps, MicroTrace.concat(traces))
 
 
 class ImplicitAlone(_Alone):

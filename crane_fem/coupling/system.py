@@ -267,6 +267,13 @@ class CoupledSystem:
         self.grid = grid if grid is not None else TimeGrid(self.dt, 2**62, self.m)
         self.e_kin = self.e_int = self.i_kin = self.i_int = 0.0
         self._cv_cache: tuple[FloatArray, FloatArray] | None = None
+        #: Called (collective, with the system) at every state a run holds between its
+        #: sampling instants: each record, and inside a monolithic reference's record every
+        #: ``observe_every`` micro steps. Output only (a peak taken on a finer interval than
+        #: the sampling's, e.g. the support reactions'); it must not change the state.
+        self.observers: list[Callable[[CoupledSystem], None]] = []
+        #: A monolithic reference's observation stride (micro steps; 0: its records only).
+        self.observe_every = 0
 
     @property
     def n(self) -> int:
@@ -378,6 +385,8 @@ class CoupledSystem:
             + e["interface_dissipated"]
             + e["friction_dissipated"]
         )
+        for observe in self.observers:
+            observe(self)
         n_g = self.n_gamma
         E, I = self.E, self.I  # noqa: E741
         if interface_impulse is None:

@@ -8,6 +8,7 @@ import numpy as np
 from mpi4py import MPI
 
 from crane_fem.coupling import MacroRecord
+from crane_fem.coupling.system import CoupledSystem
 from crane_fem.pipeline import Simulation
 from crane_fem.points import GroundAcceleration
 from crane_fem.reactions import SupportReactions
@@ -37,6 +38,29 @@ class SupportsMonitor:
         self._columns = [
             f"support{k + 1}_{names[c]}" for k in range(r.n_faces) for c in range(r.bs)
         ]
+        # The peaks between the sampling instants (crane_fem.reactions): at every record of a
+        # coupled run, every fine macro step's micro steps in a monolithic reference.
+        system = sim.integrators.system
+        system.observers.append(self.observe)
+        cpl = sim.scenario.coupling
+        if not system.coupled and cpl is not None:
+            system.observe_every = int(cpl.fine_ratio or cpl.ratio)
+        self._full = np.zeros(reactions.n_owned)
+
+    def observe(self, system: CoupledSystem) -> None:
+        """The faces' peaks at the system's current state (collective)."""
+        r = self.reactions
+        if self.on_implicit:
+            side = system.I
+            assert side is not None
+            u, v = self._full.copy(), self._full.copy()
+            u[r.columns] = side.field_rows(side.u, r.columns)
+            v[r.columns] = side.field_rows(side.v, r.columns)
+        else:
+            zone = system.E
+            assert zone is not None
+            u, v = zone.u, zone.v_int
+        r.track(system.t, u, v, self.ground(system.t))
 
     @property
     def columns(self) -> list[str]:
