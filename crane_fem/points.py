@@ -56,6 +56,13 @@ class GroundAcceleration:
             a += history(t) * d
         return a
 
+    def at(self, times: FloatArray) -> FloatArray:
+        """a_g at many times (n, 3): the values of :meth:`__call__`, in one call."""
+        a = np.zeros((times.size, 3))
+        for history, d in self.parts:
+            a += history.at(times)[:, None] * d[None, :]
+        return a
+
 
 def check_points(points: dict[str, list[float]], xyz: FloatArray, comm: MPI.Comm) -> None:
     """Refuse a point farther from every vertex than :data:`POINT_REACH` × the mesh's

@@ -5,19 +5,19 @@ The clamped DOFs carry no equation in the run (their rows are identities). Their
 the residual of the unconstrained rows, R = K_f u + C_f v + M_f (a + ι a_g − g): the
 structure's internal, damping and inertia forces at the face minus its body load (self-weight
 and the relative formulation's −M ι a_g), which is the force the support applies. The rows
-K_f and M_f (a few hundred on a crane) are assembled once; an evaluation is two small products. The
-acceleration a is the mean over the last interval between evaluations, Δv / Δt: the inertia of
-the half elements next to a face is small against their elastic force.
+K_f and M_f (a few hundred on a crane) are assembled once and summed per face into two small
+SciPy matrices over the few DOFs they couple (:attr:`SupportReactions.columns`): an evaluation
+reads those values only, then one reduction. The acceleration a is the mean over the last
+interval between evaluations, Δv / Δt: the inertia of the half elements next to a face is
+small against their elastic force.
 
-The peaks are taken on a finer interval than the sampling's (:meth:`SupportReactions.track`,
-at every state the run holds between its sampling instants: a coupled run's macro steps, a
-monolithic reference's pieces of the scene's fine macro step). After a landing a face's force
-rings at 1–4 kHz, at and above the Nyquist frequency of the 0.13–0.16 ms sampling: its peak
-sampled there depends on where the sampling instants fall in the ringing (an explicit run's
-support peak moves by −20 % / +0 % over the phases of its own sampling grid), and a coupled
-run, whose Δt (the explicit zone's) differs from the reference's (the whole mesh's), samples
-another grid. The faces' forces need only the few field values their rows couple
-(:attr:`SupportReactions.columns`): cheap at every macro step, on a reduced side too.
+The peaks are read on a finer interval than the sampling's (:meth:`SupportReactions.track`):
+at every record of a coupled run and, in a fully explicit run, every ``output.peak_interval``
+(docs/user-guide.md §8). After a landing a face's force rings at 1–4 kHz (median about
+3 kHz), at and above the Nyquist frequency of a crane's 0.13–0.16 ms sampling: read at the
+sampling instants only, its peak depends on where they fall in the ringing (an explicit run's
+support peak moved by −20 % / +0 % over the phases of its own sampling grid), and a coupled
+run, whose Δt differs from the reference's, samples another grid.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+import scipy.sparse
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -65,14 +66,17 @@ def face_labels(xy: FloatArray, comm: MPI.Comm) -> tuple[npt.NDArray[np.int64], 
     return mine.astype(np.int64), centres
 
 
+#: The face operator is held dense up to this many entries (8 MB).
+DENSE_FACES = 2**20
+
 #: The per-face peaks :class:`SupportReactions` keeps.
 _PEAKS = ("peak", "t_peak", "peak_vertical", "t_vertical")
 
 
 class SupportReactions:
     """The force of each clamped face on the structure, for the fields of the subdomain
-    ``sub`` that holds the clamped DOFs (collective over its mesh communicator). Owns two
-    PETSc matrices of face rows: :meth:`destroy` them.
+    ``sub`` that holds the clamped DOFs (collective over its mesh communicator). Holds no PETSc
+    object after its construction (its face rows are SciPy matrices).
 
     Args:
         sub: the subdomain (its ``model.fixed`` marks the clamped owned DOFs).
@@ -103,17 +107,6 @@ class SupportReactions:
         if faces is not None:  # the faces' rows only (not a rope end's held rotations)
             on_face = np.isin(sub.parent_vertex[self.rows // bs], np.concatenate(faces))
             self.rows = self.rows[on_face]
-        none = np.zeros(0, dtype=np.int64)
-        K, _, M = assemble_operators(sub.formulation, V, sub.fields, none, True)
-        assert M is not None
-        isrow = PETSc.IS().createGeneral(self.rows + start, comm=self.comm)
-        iscol = PETSc.IS().createStride(n_own, first=start, step=1, comm=self.comm)
-        self.K = K.createSubMatrix(isrow, iscol)
-        self.M = M.createSubMatrix(isrow, iscol)
-        for obj in (K, M, isrow, iscol):
-            obj.destroy()
-        self._x = self.K.createVecRight()
-        self._r = self.K.createVecLeft()
         xyz = V.tabulate_dof_coordinates()[: sub.n_owned_blocks]
         # Each fixed row's block and component (a beam's pinned block fixes 3 of its 6).
         self._row_block = self.rows // bs
@@ -133,6 +126,28 @@ class SupportReactions:
             self.centres = sums[:, :3] / np.maximum(sums[:, 3:], 1.0)
         self.n_faces = self.centres.shape[0]
         self.labels = labels[np.searchsorted(blocks, self._row_block)]
+        K_face, M_face = self._face_operators(sub, start, n_own)
+        #: The owned DOFs (local indices) the face rows couple: all an evaluation reads.
+        self.columns = np.unique(np.concatenate([K_face.indices, M_face.indices]))
+        self.columns = self.columns.astype(np.int64)
+        # M_f's action on the body load (ground − g on each block's translations), per
+        # component: the same for every block, so one column per translation.
+        comp = np.arange(n_own) % bs
+        body = [M_face @ (comp == c).astype(np.float64) for c in range(self.translations)]
+        # R = [K_f  M_f  M_f ι] [u + β v;  a + α v;  a_g − g] in one product: (faces × bs)
+        # rows by the coupled columns twice and the translations.
+        at = self.columns
+        op = scipy.sparse.csr_matrix(
+            scipy.sparse.hstack(
+                [K_face[:, at], M_face[:, at], scipy.sparse.csr_matrix(np.column_stack(body))]
+            )
+        )
+        # Dense while small (a crane's 12 × 603: one BLAS call, 1 µs; SciPy's sparse product
+        # costs ~10 µs of overhead, at every observation).
+        self._faces: FloatArray | scipy.sparse.csr_matrix = (
+            op.toarray() if op.shape[0] * op.shape[1] <= DENSE_FACES else op
+        )
+        self._x = np.zeros(op.shape[1])
         self.peak = np.zeros(self.n_faces)
         self.t_peak = np.zeros(self.n_faces)
         self.peak_vertical = np.zeros(self.n_faces)
@@ -141,91 +156,127 @@ class SupportReactions:
         self.static: FloatArray | None = None
         self._v_prev: FloatArray | None = None
         self._t_prev = 0.0
-        # The owned DOFs the face rows couple (local indices): all the forces need.
-        cols = [np.zeros(0, dtype=np.int64)]
-        for A in (self.K, self.M):
-            _, aj, _ = A.getValuesCSR()
-            cols.append(np.asarray(aj, dtype=np.int64) - start)
-        self.columns = np.unique(np.concatenate(cols))
-        self.n_owned = n_own
-        # The finer observations' own previous velocity (their mean acceleration).
+        # The last observation: its velocity at the columns (the next one's mean
+        # acceleration), its time and forces (the sampled forces of that instant).
         self._track_v: FloatArray | None = None
         self._track_t = 0.0
+        self._track_f: FloatArray | None = None
 
-    def _apply(self, A: PETSc.Mat, x: FloatArray) -> FloatArray:
-        self._x.array[:] = x
-        A.mult(self._x, self._r)
-        return np.array(self._r.array, dtype=np.float64)
+    def _face_operators(
+        self, sub: Subdomain, start: int, n_own: int
+    ) -> tuple[scipy.sparse.csr_matrix, scipy.sparse.csr_matrix]:
+        """K_f and M_f summed per face: (n_faces × bs, n_own) CSR over this rank's owned
+        columns, so that the faces' forces are a local product and one sum over the ranks
+        (collective). The rows are taken by columns (the transposed face rows), which puts
+        each on the rank that owns its column, ghosts included."""
+        none = np.zeros(0, dtype=np.int64)
+        K, _, M = assemble_operators(sub.formulation, sub.V, sub.fields, none, True)
+        assert M is not None
+        isrow = PETSc.IS().createGeneral((self.rows + start).tolist(), comm=self.comm)
+        iscol = PETSc.IS().createStride(n_own, first=start, step=1, comm=self.comm)
+        # Each global face row's slot (face × bs + component), the ranks' rows in order.
+        slot = np.concatenate(self.comm.allgather(self.labels * self.bs + self._row_comp))
+        shape = (self.n_faces * self.bs, n_own)
+        out = []
+        for A in (K, M):
+            A_f = A.createSubMatrix(isrow, iscol)
+            A_t = A_f.transpose()  # rows: this rank's owned columns
+            ai, aj, av = A_t.getValuesCSR()
+            rows = np.repeat(np.arange(n_own), np.diff(ai))
+            F = scipy.sparse.coo_matrix((av, (slot[aj], rows)), shape=shape).tocsr()
+            F.sum_duplicates()
+            out.append(F)
+            A_f.destroy()
+            A_t.destroy()
+        for A in (K, M):
+            A.destroy()
+        isrow.destroy()
+        iscol.destroy()
+        return out[0], out[1]
 
     def forces(self, t: float, u: FloatArray, v: FloatArray, ground: FloatArray) -> FloatArray:
         """The force of each face on the structure at time ``t`` (n_faces, bs), N, for the
         owned fields ``u``, ``v`` and the ground acceleration vector ``ground`` (collective).
         Successive calls give the mean acceleration between them."""
         if self._v_prev is None or t <= self._t_prev:
-            a = np.zeros_like(v)
+            a = np.zeros(self.columns.size)
         else:
-            a = (v - self._v_prev) / (t - self._t_prev)
+            a = (v[self.columns] - self._v_prev[self.columns]) / (t - self._t_prev)
         self._v_prev, self._t_prev = v.copy(), t
-        return self._residual(u, v, a, ground)
+        return self._residual(u[self.columns], v[self.columns], a, ground)
 
     def _residual(
         self, u: FloatArray, v: FloatArray, a: FloatArray, ground: FloatArray
     ) -> FloatArray:
-        """R = K_f u + C_f v + M_f (a + ι a_g − g) summed per face (n_faces, bs) (collective)."""
-        bs = self.bs
-        body = np.zeros((v.size // bs, bs))
-        n_t = self.translations
-        body[:, :n_t] = np.asarray(ground, dtype=np.float64)[:n_t] - self.gravity
-        r = self._apply(self.K, u + self.beta * v) + self._apply(
-            self.M, a + body.ravel() + self.alpha * v
-        )
-        local = np.zeros((self.n_faces, bs))
-        np.add.at(local, (self.labels, self._row_comp), r)
-        return np.asarray(self.comm.allreduce(local, op=MPI.SUM), dtype=np.float64)
+        """R = K_f u + C_f v + M_f (a + ι a_g − g) summed per face (n_faces, bs), for the
+        values ``u``, ``v``, ``a`` at :attr:`columns` (collective)."""
+        n_c, n_t = self.columns.size, self.translations
+        x = self._x
+        x[:n_c] = u + self.beta * v
+        x[n_c : 2 * n_c] = a + self.alpha * v
+        x[2 * n_c :] = np.asarray(ground, dtype=np.float64)[:n_t] - self.gravity
+        r = self._faces @ x
+        if self.comm.size > 1:
+            total = np.empty_like(r)
+            self.comm.Allreduce(r, total)
+            r = total
+        return r.reshape(self.n_faces, self.bs)
 
     def update(self, t: float, u: FloatArray, v: FloatArray, ground: FloatArray) -> FloatArray:
-        """Evaluate the faces' forces at ``t``; return them (n_faces, bs), N (collective).
-        Their peaks are kept here at the first call and in a run not observed between its
-        sampling instants; an observed run keeps them at every observation (:meth:`track`,
-        whose states include the sampling instants), so that they do not depend on the
-        sampling interval."""
-        f = self.forces(t, u, v, ground)
+        """Evaluate the faces' forces at ``t`` for the owned fields ``u``, ``v``; return them
+        (n_faces, bs), N (collective). In a run observed between its sampling instants
+        (:meth:`track`, whose instants include them) they are the observation's of ``t``
+        and its peaks are kept there, so that they do not depend on the sampling interval;
+        otherwise they are evaluated here (the mean acceleration since the last call) and
+        the peaks kept."""
+        observed = self._track_f is not None and t == self._track_t
+        if observed:
+            assert self._track_f is not None
+            f = self._track_f.copy()
+            self._v_prev, self._t_prev = v.copy(), t
+        else:
+            f = self.forces(t, u, v, ground)
         if self.initial is None:
             # The first forces without the ground's acceleration on the clamped nodes' mass
             # (M_f ι a_g): in a run from its preload, the reaction to the self-weight alone.
             self.initial = f
-            self.static = self._residual(u, v, np.zeros_like(v), np.zeros(3))
+            at = self.columns
+            self.static = self._residual(u[at], v[at], np.zeros(at.size), np.zeros(3))
             self._keep_peaks(t, f)
-        elif self._track_v is None:  # not observed between the sampling instants
+        elif not observed:
             self._keep_peaks(t, f)
         return f
 
     def _keep_peaks(self, t: float, f: FloatArray) -> None:
         n_t = self.translations
-        norm = np.linalg.norm(f[:, :n_t], axis=1)
-        better = norm > self.peak
-        self.peak[better], self.t_peak[better] = norm[better], t
+        ft = f[:, :n_t]
+        norm = np.sqrt(np.einsum("ij,ij->i", ft, ft))
         vert = np.abs(f[:, n_t - 1])
+        # (most observations beat no peak: two comparisons)
+        better = norm > self.peak
+        if better.any():
+            self.peak[better], self.t_peak[better] = norm[better], t
         better = vert > self.peak_vertical
-        self.peak_vertical[better], self.t_vertical[better] = vert[better], t
+        if better.any():
+            self.peak_vertical[better], self.t_vertical[better] = vert[better], t
 
     def track(self, t: float, u: FloatArray, v: FloatArray, ground: FloatArray) -> None:
-        """Keep the faces' peaks at ``t`` between the sampling instants (collective): ``u``,
-        ``v`` owned fields, whose values at :attr:`columns` only are read (the others may be
-        zero). The mean acceleration is over the interval since the last :meth:`track`; the
-        sampled forces (:meth:`update`) are not changed."""
+        """Evaluate the faces' forces at ``t`` and keep their peaks (collective): ``u``, ``v``
+        the fields' values at :attr:`columns` (owned, this rank's), the acceleration the mean
+        over the interval since the last :meth:`track`. The peaks start at the first
+        :meth:`update` (the run's first sampled forces)."""
         if self._track_v is None or t <= self._track_t:
             a = np.zeros_like(v)
         else:
             a = (v - self._track_v) / (t - self._track_t)
-        self._track_v, self._track_t = v.copy(), t
-        if self.initial is None:
-            return  # the first forces are the sampled ones (update)
-        self._keep_peaks(t, self._residual(u, v, a, ground))
+        self._track_v, self._track_t = np.array(v, dtype=np.float64), t
+        self._track_f = self._residual(u, v, a, ground)
+        if self.initial is not None:
+            self._keep_peaks(t, self._track_f)
 
     def state_dict(self) -> dict[str, Any]:
         """The peaks, the first forces and the last velocities (a checkpoint; the velocities
-        are this rank's owned values)."""
+        are this rank's owned values, the observations' at :attr:`columns`)."""
         out: dict[str, Any] = {k: getattr(self, k).copy() for k in _PEAKS}
         out["t_prev"] = self._t_prev
         if self.initial is not None:
@@ -237,6 +288,8 @@ class SupportReactions:
         if self._track_v is not None:
             out["track_v"] = self._track_v.copy()
             out["track_t"] = self._track_t
+        if self._track_f is not None:
+            out["track_f"] = self._track_f.copy()
         return out
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
@@ -251,6 +304,8 @@ class SupportReactions:
         tv = state.get("track_v")
         self._track_v = None if tv is None else np.array(tv, dtype=np.float64)
         self._track_t = float(state.get("track_t", 0.0))
+        tf = state.get("track_f")
+        self._track_f = None if tf is None else np.array(tf, dtype=np.float64)
 
     def table(self) -> dict[str, dict[str, Any]]:
         """Per face (numbered from 1): its centre, the peak of the force's magnitude and of its
@@ -278,5 +333,5 @@ class SupportReactions:
         return out
 
     def destroy(self) -> None:
-        for obj in (self.K, self.M, self._x, self._r):
-            obj.destroy()
+        """Nothing to free: the PETSc face rows were converted and destroyed at construction
+        (kept for the monitors' protocol)."""

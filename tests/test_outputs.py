@@ -134,7 +134,9 @@ QUICK = Path(__file__).parent.parent / "demos" / "crane_quick.toml"
 def test_support_and_bridge_stress_histories(shared_tmp) -> None:
     """history.csv holds the support forces and the bridge's largest von Mises stress at the
     rows where they are evaluated (every 2nd sampling interval here, and the last) and NaN at
-    the others; their peaks in summary.json are the largest of those rows, at their times."""
+    the others; the stress's peak in summary.json is the largest of those rows, at its time,
+    the supports' the largest of their forces at every macro step (the sampled rows among
+    them: never below the rows')."""
     out = shared_tmp / "crane"
     sets = ["time.end=0.004", "output.xdmf=false", "output.every=1", "output.stress_every=2"]
     args = ["run", str(QUICK), "-o", str(out), "--no-progress"]
@@ -158,8 +160,8 @@ def test_support_and_bridge_stress_histories(shared_tmp) -> None:
         f = np.column_stack([hist[f"support{face}_f{c}"] for c in "xyz"])
         assert np.array_equal(np.isfinite(f).all(axis=1), evaluated), face
         norm = np.linalg.norm(f, axis=1)
-        k = int(np.nanargmax(norm))
-        assert s["peak_force_N"] == pytest.approx(norm[k], rel=1e-14)
-        assert s["peak_force_time_s"] == hist["t"][k]
+        assert s["peak_force_N"] >= np.nanmax(norm) * (1 - 1e-14)
+        step = s["peak_force_time_s"] / (10 * summary["dt"])
+        assert abs(step - round(step)) < 1e-6  # a (fine, m = 10) macro step's end
         assert s["initial_force_N"] == pytest.approx(f[0].tolist(), rel=1e-14)
-        assert s["peak_vertical_N"] == pytest.approx(np.nanmax(np.abs(f[:, 2])), rel=1e-14)
+        assert s["peak_vertical_N"] >= np.nanmax(np.abs(f[:, 2])) * (1 - 1e-14)

@@ -58,28 +58,24 @@ class ExplicitAlone(_Alone):
         t0 = s.t
         # t_j as the step-by-step loop computes it: t_{j−1} + Δt with t_{j−1} = (j − 1) Δt.
         times = (i0 + np.arange(n)) * s.dt + s.dt
-        every = s.observe_every if s.observers else 0
-        if not 0 < every < n:
-            out = E.advance(E.steps(t0, n, mode=kx.NONE, times=times))
-            s.explicit_balance(out)
-            s.grid.advance(n)
-            return s.record(out.lam, out.gaps, s.micro_trace(t0, out))
-        # Observed between records (a peak on a finer interval than the sampling's): the
-        # same micro steps in pieces of ``every``, each booked as the whole would be.
-        traces = []
-        for j in range(0, n, every):
-            k = min(every, n - j)
-            tj = t0 + j * s.dt
-            out = E.advance(E.steps(tj, k, mode=kx.NONE, times=times[j : j + k]))
-            s.explicit_balance(out)
-            traces.append(s.micro_trace(tj, out))
-            if j + k < n:
-                s.grid.i = i0 + j + k  # the clock at the observed state, restored below
-                for observe in s.observers:
-                    observe(s)
+        ctl = E.steps(t0, n, mode=kx.NONE, times=times)
+        every = s.observe_every
+        if not s.observers or not 0 < every < n:
+            out = E.advance(ctl)
+        else:
+            # Observed between records (a peak read on a finer interval than the sampling's)
+            # at the steps i = 0, every, 2 every, ... of the clock (the same instants at any
+            # sampling interval): the same micro steps in kernel calls between them.
+            def observe(j: int) -> None:
+                s.grid.i = i0 + j  # the clock at the observed state, restored below
+                for fn in s.observers:
+                    fn(s)
                 s.grid.i = i0
+
+            out = E.advance_in_pieces(ctl, every, observe, first=-i0 % every)
+        s.explicit_balance(out)
         s.grid.advance(n)
-        return s.record(out.lam, out.gaps, MicroTrace.concat(traces))
+        return s.record(out.lam, out.gaps, s.micro_trace(t0, out))
 
 
 class ImplicitAlone(_Alone):
@@ -96,6 +92,7 @@ class ImplicitAlone(_Alone):
         assert I is not None
         n = self._steps()
         i0 = s.grid.i
+        every = s.observe_every if s.observers else 0  # observed between records
         for k in range(n):
             t0 = (i0 + k) * s.dt
             t1 = t0 + s.dt
@@ -105,5 +102,10 @@ class ImplicitAlone(_Alone):
             f0 = I.load(t0)
             I.accept(uf, vf, af)
             s.implicit_balance(uI0, vI0, f0, I.load(t1), cv0, None)
+            if every and (i0 + k + 1) % every == 0 and k + 1 < n:
+                s.grid.i = i0 + k + 1  # the clock at the observed state, restored below
+                for fn in s.observers:
+                    fn(s)
+                s.grid.i = i0
         s.grid.advance(n)
         return s.record(np.zeros(0), np.zeros(0), MicroTrace.empty())

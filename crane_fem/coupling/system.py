@@ -267,10 +267,10 @@ class CoupledSystem:
         self.grid = grid if grid is not None else TimeGrid(self.dt, 2**62, self.m)
         self.e_kin = self.e_int = self.i_kin = self.i_int = 0.0
         self._cv_cache: tuple[FloatArray, FloatArray] | None = None
-        #: Called (collective, with the system) at every state a run holds between its
-        #: sampling instants: each record, and inside a monolithic reference's record every
-        #: ``observe_every`` micro steps. Output only (a peak taken on a finer interval than
-        #: the sampling's, e.g. the support reactions'); it must not change the state.
+        #: Called (collective, with the system) at every record and, in a monolithic
+        #: reference, every ``observe_every`` micro steps between its records. Output only
+        #: (the support reactions' peaks, read on a finer interval than the sampling's); it
+        #: must not change the state. Without observers a record is one kernel call.
         self.observers: list[Callable[[CoupledSystem], None]] = []
         #: A monolithic reference's observation stride (micro steps; 0: its records only).
         self.observe_every = 0

@@ -10,6 +10,7 @@ and constraint update are those of THEORY.md §1 (Siconos' ``computeFreeState`` 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -560,8 +561,57 @@ class ExplicitZone:
 
     def advance(self, ctl: kx.Steps, op: kx.InterfaceOp | None = None) -> kx.StepsOut:
         """Integrate the micro steps ``ctl`` describes (collective)."""
+        out = self._steps_out(ctl)
+        self._run(ctl, op, out)
+        self._last_impulses = (out.lam, out.lam_t)
+        return out
+
+    def advance_in_pieces(
+        self, ctl: kx.Steps, every: int, between: Callable[[int], None], first: int = 0
+    ) -> kx.StepsOut:
+        """Integrate the micro steps ``ctl`` describes as :meth:`advance` does, in kernel calls
+        of ``every`` steps (the first of ``first`` steps when 0 < ``first`` < ``every``),
+        calling ``between(j)`` after each call but the last, j the micro steps done (the
+        zone then holds U_j and V_j: ``u``, ``v_int``) (collective).
+
+        The state and the per-step outputs are those of one call: each call writes its rows
+        of one output; the summed terms (energies, interface impulses) are added over the
+        calls (to round-off), the flags OR-ed; the last values are the last call's. No
+        interface operator (an uncoupled zone, e.g. the fully explicit reference)."""
+        n = ctl.n
+        out = self._steps_out(ctl)
+        sums = np.zeros_like(out.sums)
+        trap, total = np.zeros_like(out.impulse_trap), np.zeros_like(out.impulse_sum)
+        flags = np.zeros_like(out.flags)
+        ends = [*range(first if 0 < first < every else every, n, every), n]
+        for j, end in zip([0, *ends[:-1]], ends, strict=True):
+            k = end - j
+            rows = slice(j, end)
+            piece = ctl._replace(
+                n=k, coef=ctl.coef[rows], tc=ctl.tc[rows], k_op=ctl.k_op[rows], ic=ctl.ic[rows]
+            )
+            part = out._replace(
+                active=out.active[rows],
+                group_impulse=out.group_impulse[rows],
+                group_gap=out.group_gap[rows],
+                impulses=out.impulses[rows] if ctl.keep_impulses else out.impulses,
+            )
+            self._run(piece, None, part)
+            sums += out.sums
+            trap += out.impulse_trap
+            total += out.impulse_sum
+            flags |= out.flags
+            if end < n:
+                between(end)
+        out.sums[:], out.impulse_trap[:] = sums, trap
+        out.impulse_sum[:], out.flags[:] = total, flags
+        self._last_impulses = (out.lam, out.lam_t)
+        return out
+
+    def _steps_out(self, ctl: kx.Steps) -> kx.StepsOut:
+        """The kernel's output arrays for ``ctl``'s steps."""
         n, p, n_g = ctl.n, self.stack.p, self.n_gamma
-        out = kx.StepsOut(
+        return kx.StepsOut(
             lam=np.zeros(p),
             gaps=np.zeros(p),
             active=np.zeros(n, dtype=bool),
@@ -575,6 +625,9 @@ class ExplicitZone:
             flags=np.zeros(5, dtype=np.int64),
             lam_t=np.zeros(self.zone.nt),
         )
+
+    def _run(self, ctl: kx.Steps, op: kx.InterfaceOp | None, out: kx.StepsOut) -> None:
+        """One kernel call into ``out``, its failures raised (collective)."""
         if ctl.mode == kx.SOLVED and op is None:
             raise ValueError("solved interface rows need an interface operator")
         if ctl.mode == kx.SOLVED and op is not None and op.k_fixed > 0.0:
@@ -594,8 +647,6 @@ class ExplicitZone:
                 f"explicit zone: the frictional contact problem did not converge at contact "
                 f"point {point} of '{group}' (residual {res:.1e} of the impulse scale)"
             )
-        self._last_impulses = (out.lam, out.lam_t)
-        return out
 
     def slipping(self) -> npt.NDArray[np.bool_]:
         """Per frictional contact point, whether it slid at the last micro step integrated:

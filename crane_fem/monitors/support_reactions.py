@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 from mpi4py import MPI
 
 from crane_fem.coupling import MacroRecord
@@ -13,7 +14,9 @@ from crane_fem.pipeline import Simulation
 from crane_fem.points import GroundAcceleration
 from crane_fem.reactions import SupportReactions
 
-__all__ = ["SupportsMonitor", "create_supports"]
+__all__ = ["SupportsMonitor", "create_supports", "observe_every"]
+
+FloatArray = npt.NDArray[np.float64]
 
 
 class SupportsMonitor:
@@ -39,28 +42,41 @@ class SupportsMonitor:
             f"support{k + 1}_{names[c]}" for k in range(r.n_faces) for c in range(r.bs)
         ]
         # The peaks between the sampling instants (crane_fem.reactions): at every record of a
-        # coupled run, every fine macro step's micro steps in a monolithic reference.
+        # coupled run, every ``output.peak_interval`` in a monolithic reference.
         system = sim.integrators.system
         system.observers.append(self.observe)
-        cpl = sim.scenario.coupling
-        if not system.coupled and cpl is not None:
-            system.observe_every = int(cpl.fine_ratio or cpl.ratio)
-        self._full = np.zeros(reactions.n_owned)
+        if not system.coupled:
+            system.observe_every = observe_every(sim.scenario.output.peak_interval, system.dt)
+        # a_g at the next observation instants, evaluated a block at a time (first step,
+        # values): one interpolation per block rather than one per observation.
+        self._ground_block: tuple[int, FloatArray] = (0, np.zeros((0, 3)))
 
     def observe(self, system: CoupledSystem) -> None:
         """The faces' peaks at the system's current state (collective)."""
         r = self.reactions
+        at = r.columns
         if self.on_implicit:
             side = system.I
             assert side is not None
-            u, v = self._full.copy(), self._full.copy()
-            u[r.columns] = side.field_rows(side.u, r.columns)
-            v[r.columns] = side.field_rows(side.v, r.columns)
+            u, v = side.field_rows(side.u, at), side.field_rows(side.v, at)
         else:
             zone = system.E
             assert zone is not None
-            u, v = zone.u, zone.v_int
-        r.track(system.t, u, v, self.ground(system.t))
+            u, v = zone.u[at], zone.v_int[at]
+        r.track(system.t, u, v, self._ground_now(system))
+
+    def _ground_now(self, system: CoupledSystem) -> FloatArray:
+        """a_g at the system's clock; a monolithic run's observation instants (the clock's
+        steps 0, every, 2 every, ...) from a block of 64 evaluated at once."""
+        every, i = system.observe_every, system.grid.i
+        if every == 0 or system.coupled or i % every:
+            return self.ground(system.t)  # a record's instant
+        first, block = self._ground_block
+        if not first <= i < first + every * block.shape[0]:
+            # the clock's t = i Δt, as TimeGrid.t computes it
+            steps = np.asarray(i + every * np.arange(64), dtype=np.float64)
+            self._ground_block = first, block = i, self.ground.at(steps * system.grid.dt)
+        return block[(i - first) // every]
 
     @property
     def columns(self) -> list[str]:
@@ -93,6 +109,12 @@ class SupportsMonitor:
 
     def destroy(self) -> None:
         self.reactions.destroy()
+
+
+def observe_every(interval: float, dt: float) -> int:
+    """The micro steps between two observations of a monolithic run: ``interval`` (s,
+    ``output.peak_interval``) rounded to whole steps of ``dt``, at least one."""
+    return max(1, round(interval / dt))
 
 
 def create_supports(sim: Simulation) -> SupportsMonitor | None:
