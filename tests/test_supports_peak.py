@@ -28,6 +28,7 @@ from crane_fem.points import GroundAcceleration
 from crane_fem.scenario import load_scenario
 
 QUICK = Path(__file__).parent.parent / "demos" / "crane_quick.toml"
+BAR = QUICK.parent / "bar_impact.toml"
 
 
 def _explicit(*more: str) -> list[str]:
@@ -174,12 +175,20 @@ def test_explicit_support_peaks_do_not_depend_on_the_sampling_interval(shared_tm
     assert np.all(moved > 0.03), sampled
 
 
-@pytest.mark.parametrize("value", ["0", "-1e-5"])
-def test_peak_interval_must_be_positive(value, capsys) -> None:
-    """A non-positive ``output.peak_interval``: one line naming the key, exit code 2, from
-    `check` as from `run`, before any work."""
+@pytest.mark.parametrize(
+    ("scene", "value", "fragment"),
+    [
+        (QUICK, "0", "greater than 0"),
+        (QUICK, "-1e-5", "greater than 0"),
+        (BAR, "1e-5", "scenes with [[subdomain]] or [coupling] only"),
+    ],
+)
+def test_bad_peak_interval_one_line(scene, value, fragment, capsys) -> None:
+    """A non-positive ``output.peak_interval``, or one on a scene without supports' reactions
+    (a 1D bar): one line naming the key, exit code 2, from `check` as from `run`, before any
+    work."""
     for command in ("check", "run"):
-        code = main([command, str(QUICK), "--set", f"output.peak_interval={value}"])
+        code = main([command, str(scene), "--set", f"output.peak_interval={value}"])
         err = capsys.readouterr().err.strip().splitlines()
         assert code == 2 and len(err) == 1, (command, err)
-        assert "output.peak_interval" in err[0] and "greater than 0" in err[0], err[0]
+        assert "output.peak_interval" in err[0] and fragment in err[0], err[0]

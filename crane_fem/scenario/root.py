@@ -595,6 +595,11 @@ class Scenario(Section):
                 "output.sample_interval: scenes with [[subdomain]] or [coupling] only (a 1D "
                 "bar writes every output.every steps)"
             )
+        if "peak_interval" in self.output.model_fields_set and not self.coupled_path:
+            raise ValueError(
+                "output.peak_interval: scenes with [[subdomain]] or [coupling] only (a 1D bar "
+                "has no supports' reactions)"
+            )
         if self.output.checkpoint_every is not None and not self.coupled_path:
             raise ValueError(
                 "output.checkpoint_every: checkpoints are written by scenes with [[subdomain]] "
