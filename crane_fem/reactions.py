@@ -274,6 +274,45 @@ class SupportReactions:
         if self.initial is not None:
             self._keep_peaks(t, self._track_f)
 
+    def track_many(
+        self, times: FloatArray, u: FloatArray, v: FloatArray, ground: FloatArray
+    ) -> None:
+        """:meth:`track` at each of ``times`` (m,) in order, at once: ``u``, ``v`` (m,
+        columns), ``ground`` (m, 3) (collective: one reduction)."""
+        m = times.size
+        if m == 0:
+            return
+        a = np.zeros_like(v)
+        if self._track_v is not None and times[0] > self._track_t:
+            a[0] = (v[0] - self._track_v) / (times[0] - self._track_t)
+        if m > 1:
+            a[1:] = (v[1:] - v[:-1]) / (times[1:] - times[:-1])[:, None]
+        n_c, n_t = self.columns.size, self.translations
+        x = np.empty((m, self._x.size))
+        x[:, :n_c] = u + self.beta * v
+        x[:, n_c : 2 * n_c] = a + self.alpha * v
+        x[:, 2 * n_c :] = ground[:, :n_t] - self.gravity
+        # (row-major: the reduction sums raw buffers)
+        r = np.ascontiguousarray((self._faces @ x.T).T, dtype=np.float64)
+        if self.comm.size > 1:
+            total = np.empty_like(r)
+            self.comm.Allreduce(r, total)
+            r = total
+        f = r.reshape(m, self.n_faces, self.bs)
+        self._track_v, self._track_t = np.array(v[-1], dtype=np.float64), float(times[-1])
+        self._track_f = f[-1].copy()
+        if self.initial is None:
+            return
+        ft = f[:, :, :n_t]
+        for values, peak, when in (
+            (np.sqrt(np.einsum("mij,mij->mi", ft, ft)), self.peak, self.t_peak),
+            (np.abs(f[:, :, n_t - 1]), self.peak_vertical, self.t_vertical),
+        ):
+            j = np.argmax(values, axis=0)  # (the first of equal values: as one by one)
+            best = values[j, np.arange(self.n_faces)]
+            better = best > peak
+            peak[better], when[better] = best[better], times[j[better]]
+
     def state_dict(self) -> dict[str, Any]:
         """The peaks, the first forces and the last velocities (a checkpoint; the velocities
         are this rank's owned values, the observations' at :attr:`columns`)."""

@@ -3,9 +3,9 @@
 After a landing a face's force rings at 1–4 kHz, at and above the Nyquist frequency of the
 crane's 0.13–0.16 ms sampling, so a peak read at the sampling instants only depends on where
 they fall (an explicit run's support peak moved by −20 % over the phases of its own grid). A
-fully explicit run now reads them every ``output.peak_interval`` (its micro steps in kernel
-calls between those instants), a coupled run at each macro step; a run without supports is
-integrated as before, one kernel call per record."""
+fully explicit run now reads them every ``output.peak_interval`` (the kernel reads the
+faces' columns between the records: still one call per record), a coupled run at each macro
+step."""
 
 from __future__ import annotations
 
@@ -63,73 +63,78 @@ def _petsc_forces(sim, reactions, u, v, a, ground) -> np.ndarray:
 
 
 @pytest.mark.skipif(COMM.size > 1, reason="the PETSc twin sums this rank's rows (serial)")
-def test_observed_run_same_state_as_one_call_and_forces_as_petsc_rows() -> None:
-    """A fully explicit run read every ``peak_interval`` integrates the same micro steps in
-    kernel calls between the readings: its state after each record is bit for bit the one
-    call's. Without the supports' monitor no reading is made and a record is one kernel
-    call. The faces' forces of the SciPy face operator are the PETSc face rows' to
-    round-off (1e-9 of the force here: sums of ~1e5 N terms in another order)."""
-    sc = load_scenario(QUICK, _explicit("time.end=0.002", "output.peak_interval=1.3e-5"))
-    calls = {"advance": 0, "pieces": 0}
-    advance, pieces = ExplicitZone.advance, ExplicitZone.advance_in_pieces
+def test_kernel_readings_are_the_states_of_a_run_recorded_there() -> None:
+    """A fully explicit run read every ``peak_interval`` (10 micro steps here) stays one
+    kernel call per record: the kernel reads U_j and V_j at the faces' columns between the
+    records. Those readings are, bit for bit, the states a run recording every 10 micro
+    steps holds at the same instants, and the records' states are the same. The faces'
+    forces of the SciPy face operator are the PETSc face rows' to round-off (1e-9 of the
+    force here: sums of ~1e5 N terms in another order)."""
+    sets = _explicit("time.end=0.002", "output.peak_interval=1.3e-5")
+    calls = {"advance": 0}
+    advance = ExplicitZone.advance
 
     def count_advance(self, *args, **kw):
         calls["advance"] += 1
         return advance(self, *args, **kw)
 
-    def count_pieces(self, *args, **kw):
-        calls["pieces"] += 1
-        return pieces(self, *args, **kw)
-
     mp = pytest.MonkeyPatch()
     mp.setattr(ExplicitZone, "advance", count_advance)
-    mp.setattr(ExplicitZone, "advance_in_pieces", count_pieces)
-    states = []
     try:
-        for observed in (True, False):
-            sim = create_simulation(sc, COMM)
-            mon = create_supports(sim) if observed else None
-            system = sim.integrators.system
-            seen: list[tuple[int, np.ndarray]] = []
-            if mon is not None:
-                assert system.observe_every == 10  # 1.3e-5 s / Δt = 1.30e-6 s
+        # Read between its records (every 0.13 ms sampling interval: 100 micro steps).
+        sc = load_scenario(QUICK, sets)
+        sim = create_simulation(sc, COMM)
+        mon = create_supports(sim)
+        assert mon is not None
+        system, r = sim.integrators.system, mon.reactions
+        assert system.observe_every == 10  # 1.3e-5 s / Δt = 1.30e-6 s
+        readings: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+        many = r.track_many
 
-                def spy(s, mon=mon, seen=seen) -> None:
-                    seen.append((s.grid.i, mon.reactions._track_f.copy()))
+        def spy(times, u, v, ground) -> None:
+            for k, t in enumerate(times):
+                readings[float(t)] = (u[k].copy(), v[k].copy())
+            many(times, u, v, ground)
 
-                system.observers.append(spy)
-            us = []
-            for rec in _records(sim.integrators.method, None, None):
-                if not us:  # the start's record: count the steps' calls
-                    calls.update(advance=0, pieces=0)
-                if mon is not None:
-                    mon.update(rec, rec.micro_step >= system.grid.end)
-                us.append(rec.explicit_u.copy())
-            n_rec = len(us) - 1
-            if mon is None:
-                # No supports' monitor: one kernel call per record, none in pieces.
-                assert calls == {"advance": n_rec, "pieces": 0}
-            else:
-                assert calls["pieces"] == n_rec and calls["advance"] == 0
-                # Read at the clock's steps 0, 10, 20, ... and at every record.
-                end, sample = system.grid.end, system.grid.sample
-                expected = set(range(0, end + 1, 10)) | set(range(0, end + 1, sample)) | {end}
-                assert sorted(i for i, _ in seen) == sorted(expected)
-                # The last reading's forces against the PETSc face rows.
-                E, r = system.E, mon.reactions
-                g = GroundAcceleration(sc)(system.t)
-                a = 1e3 * E.v_int + 0.5  # any acceleration: the M_f rows' columns too
-                ref = _petsc_forces(sim, r, E.u, E.v_int, a, g)
-                mine = r._residual(E.u[r.columns], E.v_int[r.columns], a[r.columns], g)
-                scale = np.abs(ref).max()
-                assert np.abs(mine - ref).max() <= 1e-9 * scale
-                mon.destroy()
-            states.append(us)
-            sim.destroy()
+        r.track_many = spy  # type: ignore[method-assign]
+        records = {}
+        for rec in _records(sim.integrators.method, None, None):
+            if not records:  # the start's record: count the steps' calls
+                calls["advance"] = 0
+            mon.update(rec, rec.micro_step >= system.grid.end)
+            records[rec.t] = rec.explicit_u.copy()
+        assert calls["advance"] == len(records) - 1  # one kernel call per record
+        end, sample = system.grid.end, system.grid.sample
+        steps = set(range(10, end, 10)) - set(range(0, end + 1, sample))
+        assert sorted(readings) == sorted(i * system.grid.dt for i in steps)
+        # The last state's forces against the PETSc face rows.
+        E = system.E
+        g = GroundAcceleration(sc)(system.t)
+        a = 1e3 * E.v_int + 0.5  # any acceleration: the M_f rows' columns too
+        ref = _petsc_forces(sim, r, E.u, E.v_int, a, g)
+        mine = r._residual(E.u[r.columns], E.v_int[r.columns], a[r.columns], g)
+        assert np.abs(mine - ref).max() <= 1e-9 * np.abs(ref).max()
+        cols = r.columns.copy()
+        mon.destroy()
+        sim.destroy()
+        # The same run recording every 10 micro steps (its records every ratio's micro
+        # steps), no supports' monitor.
+        calls["advance"] = 0
+        every10 = ["output.sample_interval=1.3e-5", "coupling.ratio=10"]
+        fine = create_simulation(load_scenario(QUICK, [*sets, *every10]), COMM)
+        seen = 0
+        for rec in _records(fine.integrators.method, None, None):
+            zone = fine.integrators.system.E
+            if rec.t in readings:
+                u, v = readings[rec.t]
+                assert np.array_equal(zone.u[cols], u) and np.array_equal(zone.v_int[cols], v)
+                seen += 1
+            if rec.t in records:
+                assert np.array_equal(rec.explicit_u, records[rec.t])
+        assert seen == len(readings) > 0
+        fine.destroy()
     finally:
         mp.undo()
-    for u_obs, u_one in zip(*states, strict=True):
-        assert np.array_equal(u_obs, u_one)
 
 
 @pytest.mark.slow

@@ -58,21 +58,25 @@ class ExplicitAlone(_Alone):
         t0 = s.t
         # t_j as the step-by-step loop computes it: t_{j−1} + Δt with t_{j−1} = (j − 1) Δt.
         times = (i0 + np.arange(n)) * s.dt + s.dt
-        ctl = E.steps(t0, n, mode=kx.NONE, times=times)
-        every = s.observe_every
-        if not s.observers or not 0 < every < n:
-            out = E.advance(ctl)
-        else:
-            # Observed between records (a peak read on a finer interval than the sampling's)
-            # at the steps i = 0, every, 2 every, ... of the clock (the same instants at any
-            # sampling interval): the same micro steps in kernel calls between them.
-            def observe(j: int) -> None:
-                s.grid.i = i0 + j  # the clock at the observed state, restored below
-                for fn in s.observers:
-                    fn(s)
-                s.grid.i = i0
-
-            out = E.advance_in_pieces(ctl, every, observe, first=-i0 % every)
+        # Readings between the records (a peak read on a finer interval than the
+        # sampling's) after the clock's steps every, 2 every, ... (the same instants at any
+        # sampling interval), taken by the kernel: one call per record.
+        every = s.observe_every if s.probe_reader is not None else 0
+        first = (-i0 - 1) % every if every else 0
+        ctl = E.steps(
+            t0,
+            n,
+            mode=kx.NONE,
+            times=times,
+            probe=s.probe if every else None,
+            probe_every=every,
+            probe_first=first,
+        )
+        out = E.advance(ctl)
+        if out.probe_u.shape[0]:  # (the same readings on every rank: collective)
+            assert s.probe_reader is not None
+            at = i0 + first + 1 + every * np.arange(out.probe_u.shape[0])
+            s.probe_reader(at.astype(np.float64) * s.grid.dt, out.probe_u, out.probe_v)
         s.explicit_balance(out)
         s.grid.advance(n)
         return s.record(out.lam, out.gaps, s.micro_trace(t0, out))

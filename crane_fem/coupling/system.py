@@ -267,13 +267,18 @@ class CoupledSystem:
         self.grid = grid if grid is not None else TimeGrid(self.dt, 2**62, self.m)
         self.e_kin = self.e_int = self.i_kin = self.i_int = 0.0
         self._cv_cache: tuple[FloatArray, FloatArray] | None = None
-        #: Called (collective, with the system) at every record and, in a monolithic
-        #: reference, every ``observe_every`` micro steps between its records. Output only
-        #: (the support reactions' peaks, read on a finer interval than the sampling's); it
-        #: must not change the state. Without observers a record is one kernel call.
+        #: Called (collective, with the system) at every record (and, in a monolithic
+        #: implicit reference, every ``observe_every`` time steps between its records).
+        #: Output only (the support reactions' peaks, read on a finer interval than the
+        #: sampling's); it must not change the state.
         self.observers: list[Callable[[CoupledSystem], None]] = []
-        #: A monolithic reference's observation stride (micro steps; 0: its records only).
+        #: A monolithic reference's readings between its records: every ``observe_every``
+        #: micro steps of the clock (0: none), the owned DOFs ``probe`` read by the kernel
+        #: (U_j, V_j), handed once per record to ``probe_reader`` (times (m,), U and V
+        #: (m, probe size); collective). A record stays one kernel call.
         self.observe_every = 0
+        self.probe: npt.NDArray[np.int64] = np.zeros(0, dtype=np.int64)
+        self.probe_reader: Callable[[FloatArray, FloatArray, FloatArray], None] | None = None
 
     @property
     def n(self) -> int:

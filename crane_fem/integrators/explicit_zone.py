@@ -10,7 +10,6 @@ and constraint update are those of THEORY.md §1 (Siconos' ``computeFreeState`` 
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -358,6 +357,14 @@ def _local_block_csr(
     )
 
 
+def readings(ctl: kx.Steps) -> int:
+    """How many readings of its probe ``ctl``'s micro steps take: after the steps
+    probe_first, probe_first + probe_every, ... before the last (:class:`kx.Steps`)."""
+    if ctl.probe_every == 0 or ctl.probe_first > ctl.n - 2:
+        return 0
+    return (ctl.n - 2 - ctl.probe_first) // ctl.probe_every + 1
+
+
 class ExplicitZone:
     """CD-Lagrange on one explicit subdomain, stepped by the compiled kernel.
 
@@ -530,6 +537,9 @@ class ExplicitZone:
         watch: npt.NDArray[np.bool_] | None = None,
         keep_impulses: bool = False,
         times: npt.NDArray[np.floating[Any]] | None = None,
+        probe: IntArray | None = None,
+        probe_every: int = 0,
+        probe_first: int = 0,
     ) -> kx.Steps:
         """The description of ``n`` micro steps from t0: t_j = t0 + jΔt, j = 1..n (or the
         given ``times``; t0 itself for a first step that does not move U)."""
@@ -557,54 +567,15 @@ class ExplicitZone:
             imposed=np.zeros((2, n_g)) if imposed is None else np.vstack(imposed),
             watch=np.zeros(0, dtype=bool) if watch is None else np.asarray(watch, dtype=bool),
             keep_impulses=keep_impulses,
+            probe=np.zeros(0, dtype=np.int64) if probe is None else probe.astype(np.int64),
+            probe_every=max(0, int(probe_every)),
+            probe_first=int(probe_first),
         )
 
     def advance(self, ctl: kx.Steps, op: kx.InterfaceOp | None = None) -> kx.StepsOut:
         """Integrate the micro steps ``ctl`` describes (collective)."""
         out = self._steps_out(ctl)
         self._run(ctl, op, out)
-        self._last_impulses = (out.lam, out.lam_t)
-        return out
-
-    def advance_in_pieces(
-        self, ctl: kx.Steps, every: int, between: Callable[[int], None], first: int = 0
-    ) -> kx.StepsOut:
-        """Integrate the micro steps ``ctl`` describes as :meth:`advance` does, in kernel calls
-        of ``every`` steps (the first of ``first`` steps when 0 < ``first`` < ``every``),
-        calling ``between(j)`` after each call but the last, j the micro steps done (the
-        zone then holds U_j and V_j: ``u``, ``v_int``) (collective).
-
-        The state and the per-step outputs are those of one call: each call writes its rows
-        of one output; the summed terms (energies, interface impulses) are added over the
-        calls (to round-off), the flags OR-ed; the last values are the last call's. No
-        interface operator (an uncoupled zone, e.g. the fully explicit reference)."""
-        n = ctl.n
-        out = self._steps_out(ctl)
-        sums = np.zeros_like(out.sums)
-        trap, total = np.zeros_like(out.impulse_trap), np.zeros_like(out.impulse_sum)
-        flags = np.zeros_like(out.flags)
-        ends = [*range(first if 0 < first < every else every, n, every), n]
-        for j, end in zip([0, *ends[:-1]], ends, strict=True):
-            k = end - j
-            rows = slice(j, end)
-            piece = ctl._replace(
-                n=k, coef=ctl.coef[rows], tc=ctl.tc[rows], k_op=ctl.k_op[rows], ic=ctl.ic[rows]
-            )
-            part = out._replace(
-                active=out.active[rows],
-                group_impulse=out.group_impulse[rows],
-                group_gap=out.group_gap[rows],
-                impulses=out.impulses[rows] if ctl.keep_impulses else out.impulses,
-            )
-            self._run(piece, None, part)
-            sums += out.sums
-            trap += out.impulse_trap
-            total += out.impulse_sum
-            flags |= out.flags
-            if end < n:
-                between(end)
-        out.sums[:], out.impulse_trap[:] = sums, trap
-        out.impulse_sum[:], out.flags[:] = total, flags
         self._last_impulses = (out.lam, out.lam_t)
         return out
 
@@ -624,6 +595,8 @@ class ExplicitZone:
             w=np.zeros(n_g),
             flags=np.zeros(5, dtype=np.int64),
             lam_t=np.zeros(self.zone.nt),
+            probe_u=np.zeros((readings(ctl), ctl.probe.size)),
+            probe_v=np.zeros((readings(ctl), ctl.probe.size)),
         )
 
     def _run(self, ctl: kx.Steps, op: kx.InterfaceOp | None, out: kx.StepsOut) -> None:

@@ -124,6 +124,11 @@ def _micro(
     if last:
         for i in range(n_own):
             st.v_int[i] = vh[i]
+    row = _probe_row(ctl, jj)
+    if row >= 0:  # a reading after this step: U_j now, V_{j−1/2} (V_j at the end)
+        for c in range(ctl.probe.size):
+            out.probe_u[row, c] = u[ctl.probe[c]]
+            out.probe_v[row, c] = vh[ctl.probe[c]]
     halo = z.neighbours.size > 0
     n_nb = z.neighbours.size
     if z.beta != 0.0:  # stiffness damping: K V_{j−1/2} first (its own halo exchange)
@@ -168,6 +173,7 @@ def _micro(
         if last:
             for i in range(n_own):
                 st.v_int[i] = 0.5 * (st.v_int[i] + vh[i])
+        _probe_end(ctl, out, vh, row)
         return
     # Stacked rows: L U_j, L V_{j−1/2}, L V_free (one reduction). (Arrays taken out of the
     # tuples first: the loops below then keep them in registers.)
@@ -341,6 +347,27 @@ def _micro(
             out.lam_t[k] = lam_t[k]
         for i in range(n_g):
             out.w[i] = st.w_prev[i]
+    _probe_end(ctl, out, vh, row)
+
+
+@numba.njit(cache=True, inline="always")
+def _probe_row(ctl: Steps, jj: int) -> int:
+    """The reading taken after micro step ``jj`` (its row in ``probe_u``), or −1."""
+    if ctl.probe_every == 0 or jj < ctl.probe_first or jj >= ctl.n - 1:
+        return -1
+    k = jj - ctl.probe_first
+    if k % ctl.probe_every != 0:
+        return -1
+    return k // ctl.probe_every
+
+
+@numba.njit(cache=True, inline="always")
+def _probe_end(ctl: Steps, out: StepsOut, vh: FloatArray, row: int) -> None:
+    """V_j = ½ (V_{j−1/2} + V_{j+1/2}) at the probe, as ``v_int`` is formed."""
+    if row < 0:
+        return
+    for c in range(ctl.probe.size):
+        out.probe_v[row, c] = 0.5 * (out.probe_v[row, c] + vh[ctl.probe[c]])
 
 
 @numba.njit(cache=True)

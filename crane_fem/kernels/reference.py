@@ -188,6 +188,10 @@ def run_steps(
             st.lam_prev[:] = lam[:n_g]
             st.w_prev[:] = w
         st.ku[:] = ku
+        k = jj - ctl.probe_first
+        if ctl.probe_every and 0 <= k and k % ctl.probe_every == 0 and jj < ctl.n - 1:
+            out.probe_u[k // ctl.probe_every] = u[ctl.probe]
+            out.probe_v[k // ctl.probe_every] = v_mid[ctl.probe]
         if jj == ctl.n - 1:
             st.v_int[:] = v_mid
             out.lam[:] = lam

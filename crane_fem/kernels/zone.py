@@ -275,6 +275,14 @@ class Steps(NamedTuple):
     imposed: FloatArray  # (2, n_g)
     watch: BoolArray
     keep_impulses: bool
+    #: Readings between the records: the owned DOFs ``probe`` read after the micro steps
+    #: jj = probe_first, probe_first + probe_every, ... before the last (U_j and
+    #: V_j = ½ (V_{j−1/2} + V_{j+1/2}) there, into :attr:`StepsOut.probe_u`, ``probe_v``);
+    #: none when ``probe_every`` is 0. (Under MPI every rank takes the same readings, of its
+    #: own DOFs, maybe none.)
+    probe: IntArray = np.zeros(0, dtype=np.int64)
+    probe_every: int = 0
+    probe_first: int = 0
 
 
 class StepsOut(NamedTuple):
@@ -285,7 +293,8 @@ class StepsOut(NamedTuple):
     physical interface work), the interface impulses summed (trapezoid and plain), each
     micro step's (``keep_impulses``), L_E V at the last micro step, flags (contact set
     changed, MPI error, singular LCP, friction problem not solved, an open point closed),
-    and the last micro step's tangential impulses (``lam_t``, n_t; empty without friction)."""
+    the last micro step's tangential impulses (``lam_t``, n_t; empty without friction), and
+    the readings of :attr:`Steps.probe` (``probe_u``, ``probe_v``)."""
 
     lam: FloatArray
     gaps: FloatArray
@@ -299,3 +308,7 @@ class StepsOut(NamedTuple):
     w: FloatArray
     flags: IntArray
     lam_t: FloatArray = np.zeros(0)  # (shared default: written only when n_t > 0)
+    #: (readings, probe size): U_j and V_j at :attr:`Steps.probe` (shared defaults, empty:
+    #: written only with a probe).
+    probe_u: FloatArray = np.zeros((0, 0))
+    probe_v: FloatArray = np.zeros((0, 0))

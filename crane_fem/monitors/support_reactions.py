@@ -42,14 +42,15 @@ class SupportsMonitor:
             f"support{k + 1}_{names[c]}" for k in range(r.n_faces) for c in range(r.bs)
         ]
         # The peaks between the sampling instants (crane_fem.reactions): at every record of a
-        # coupled run, every ``output.peak_interval`` in a monolithic reference.
+        # coupled run, every ``output.peak_interval`` in a monolithic reference (a fully
+        # explicit one's readings taken by the kernel, handed over once per record).
         system = sim.integrators.system
         system.observers.append(self.observe)
         if not system.coupled:
             system.observe_every = observe_every(sim.scenario.output.peak_interval, system.dt)
-        # a_g at the next observation instants, evaluated a block at a time (first step,
-        # values): one interpolation per block rather than one per observation.
-        self._ground_block: tuple[int, FloatArray] = (0, np.zeros((0, 3)))
+            if not self.on_implicit:
+                system.probe = reactions.columns
+                system.probe_reader = self.read
 
     def observe(self, system: CoupledSystem) -> None:
         """The faces' peaks at the system's current state (collective)."""
@@ -63,20 +64,12 @@ class SupportsMonitor:
             zone = system.E
             assert zone is not None
             u, v = zone.u[at], zone.v_int[at]
-        r.track(system.t, u, v, self._ground_now(system))
+        r.track(system.t, u, v, self.ground(system.t))
 
-    def _ground_now(self, system: CoupledSystem) -> FloatArray:
-        """a_g at the system's clock; a monolithic run's observation instants (the clock's
-        steps 0, every, 2 every, ...) from a block of 64 evaluated at once."""
-        every, i = system.observe_every, system.grid.i
-        if every == 0 or system.coupled or i % every:
-            return self.ground(system.t)  # a record's instant
-        first, block = self._ground_block
-        if not first <= i < first + every * block.shape[0]:
-            # the clock's t = i Δt, as TimeGrid.t computes it
-            steps = np.asarray(i + every * np.arange(64), dtype=np.float64)
-            self._ground_block = first, block = i, self.ground.at(steps * system.grid.dt)
-        return block[(i - first) // every]
+    def read(self, times: FloatArray, u: FloatArray, v: FloatArray) -> None:
+        """The faces' peaks at the kernel's readings between two records: ``u``, ``v`` (m,
+        columns) at ``times`` (m,) (collective)."""
+        self.reactions.track_many(times, u, v, self.ground.at(times))
 
     @property
     def columns(self) -> list[str]:
