@@ -265,14 +265,8 @@ class SupportReactions:
         the fields' values at :attr:`columns` (owned, this rank's), the acceleration the mean
         over the interval since the last :meth:`track`. The peaks start at the first
         :meth:`update` (the run's first sampled forces)."""
-        if self._track_v is None or t <= self._track_t:
-            a = np.zeros_like(v)
-        else:
-            a = (v - self._track_v) / (t - self._track_t)
-        self._track_v, self._track_t = np.array(v, dtype=np.float64), t
-        self._track_f = self._residual(u, v, a, ground)
-        if self.initial is not None:
-            self._keep_peaks(t, self._track_f)
+        g = np.asarray(ground, dtype=np.float64)
+        self.track_many(np.array([t], dtype=np.float64), u[None, :], v[None, :], g[None, :])
 
     def track_many(
         self, times: FloatArray, u: FloatArray, v: FloatArray, ground: FloatArray
