@@ -62,14 +62,15 @@ def _petsc_forces(sim, reactions, u, v, a, ground) -> np.ndarray:
     return out
 
 
-@pytest.mark.skipif(COMM.size > 1, reason="the PETSc twin sums this rank's rows (serial)")
 def test_kernel_readings_are_the_states_of_a_run_recorded_there() -> None:
     """A fully explicit run read every ``peak_interval`` (10 micro steps here) stays one
     kernel call per record: the kernel reads U_j and V_j at the faces' columns between the
     records. Those readings are, bit for bit, the states a run recording every 10 micro
     steps holds at the same instants, and the records' states are the same. The faces'
     forces of the SciPy face operator are the PETSc face rows' to round-off (1e-9 of the
-    force here: sums of ~1e5 N terms in another order)."""
+    force here: sums of ~1e5 N terms in another order; serially: the PETSc twin sums this
+    rank's rows). A record's readings evaluated at once (one reduction over the ranks) give
+    its last reading's forces as one evaluation of that reading alone."""
     sets = _explicit("time.end=0.002", "output.peak_interval=1.3e-5")
     calls = {"advance": 0}
     advance = ExplicitZone.advance
@@ -96,6 +97,10 @@ def test_kernel_readings_are_the_states_of_a_run_recorded_there() -> None:
             for k, t in enumerate(times):
                 readings[float(t)] = (u[k].copy(), v[k].copy())
             read(times, u, v)
+            if times.size > 1:
+                a = (v[-1] - v[-2]) / (times[-1] - times[-2])
+                one = r._residual(u[-1], v[-1], a, mon.ground.at(times[-1:])[0])
+                assert np.allclose(r._track_f, one, rtol=1e-12, atol=1e-9 * np.abs(one).max())
 
         system.probe_reader = spy
         records = {}
@@ -108,13 +113,13 @@ def test_kernel_readings_are_the_states_of_a_run_recorded_there() -> None:
         end, sample = system.grid.end, system.grid.sample
         steps = set(range(10, end, 10)) - set(range(0, end + 1, sample))
         assert sorted(readings) == sorted(i * system.grid.dt for i in steps)
-        # The last state's forces against the PETSc face rows.
-        E = system.E
-        g = GroundAcceleration(sc)(system.t)
-        a = 1e3 * E.v_int + 0.5  # any acceleration: the M_f rows' columns too
-        ref = _petsc_forces(sim, r, E.u, E.v_int, a, g)
-        mine = r._residual(E.u[r.columns], E.v_int[r.columns], a[r.columns], g)
-        assert np.abs(mine - ref).max() <= 1e-9 * np.abs(ref).max()
+        if COMM.size == 1:  # the last state's forces against the PETSc face rows
+            E = system.E
+            g = GroundAcceleration(sc)(system.t)
+            a = 1e3 * E.v_int + 0.5  # any acceleration: the M_f rows' columns too
+            ref = _petsc_forces(sim, r, E.u, E.v_int, a, g)
+            mine = r._residual(E.u[r.columns], E.v_int[r.columns], a[r.columns], g)
+            assert np.abs(mine - ref).max() <= 1e-9 * np.abs(ref).max()
         cols = r.columns.copy()
         mon.destroy()
         sim.destroy()
@@ -139,6 +144,7 @@ def test_kernel_readings_are_the_states_of_a_run_recorded_there() -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.serial  # its two-rank part: the readings' reduction, in the test above
 def test_explicit_support_peaks_do_not_depend_on_the_sampling_interval(shared_tmp) -> None:
     """The quick crane's fully explicit run through its landing (0.052 s; its faces then ring
     at 3.8 kHz and 1 kHz), sampled every 0.13 and every 0.39 ms. Read every
