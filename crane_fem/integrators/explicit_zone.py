@@ -574,15 +574,8 @@ class ExplicitZone:
 
     def advance(self, ctl: kx.Steps, op: kx.InterfaceOp | None = None) -> kx.StepsOut:
         """Integrate the micro steps ``ctl`` describes (collective)."""
-        out = self._steps_out(ctl)
-        self._run(ctl, op, out)
-        self._last_impulses = (out.lam, out.lam_t)
-        return out
-
-    def _steps_out(self, ctl: kx.Steps) -> kx.StepsOut:
-        """The kernel's output arrays for ``ctl``'s steps."""
         n, p, n_g = ctl.n, self.stack.p, self.n_gamma
-        return kx.StepsOut(
+        out = kx.StepsOut(
             lam=np.zeros(p),
             gaps=np.zeros(p),
             active=np.zeros(n, dtype=bool),
@@ -598,9 +591,6 @@ class ExplicitZone:
             probe_u=np.zeros((readings(ctl), ctl.probe.size)),
             probe_v=np.zeros((readings(ctl), ctl.probe.size)),
         )
-
-    def _run(self, ctl: kx.Steps, op: kx.InterfaceOp | None, out: kx.StepsOut) -> None:
-        """One kernel call into ``out``, its failures raised (collective)."""
         if ctl.mode == kx.SOLVED and op is None:
             raise ValueError("solved interface rows need an interface operator")
         if ctl.mode == kx.SOLVED and op is not None and op.k_fixed > 0.0:
@@ -620,6 +610,8 @@ class ExplicitZone:
                 f"explicit zone: the frictional contact problem did not converge at contact "
                 f"point {point} of '{group}' (residual {res:.1e} of the impulse scale)"
             )
+        self._last_impulses = (out.lam, out.lam_t)
+        return out
 
     def slipping(self) -> npt.NDArray[np.bool_]:
         """Per frictional contact point, whether it slid at the last micro step integrated:
