@@ -6,7 +6,7 @@ NP ?= 2
 # Python >= 3.12: an explicit PYTHON, else python3.12 on PATH, else pyenv's newest 3.12.
 PYTHON ?= $(shell command -v python3.12 2>/dev/null || ls -d $$HOME/.pyenv/versions/3.12*/bin/python3.12 2>/dev/null | tail -n 1)
 
-.PHONY: install test lint warm test-serial test-mpi demo demo-bar bench bench-quick clean
+.PHONY: install test lint warm test-serial test-mpi test-no-kernels lint-then-no-kernels demo demo-bar bench bench-quick clean
 
 $(BIN)/.installed: pyproject.toml
 	@test -n "$(PYTHON)" || { echo "make: no Python 3.12 found (set PYTHON=/path/to/python3.12)"; exit 1; }
@@ -31,23 +31,33 @@ lint: $(BIN)/.installed
 # cores.
 test-serial: $(BIN)/.installed
 	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -q -n $(NP) --dist loadfile \
-		--no-loadscope-reorder tests
+		--no-loadscope-reorder $(SERIAL_SELECT) tests
+
+# The modules marked `no_kernels` (records, spectra, figures, docs, input checks: about a
+# minute) need no compiled kernel: `make test` runs them serially on the core the lint leaves
+# idle while `make warm` compiles, and its serial pass leaves them out.
+test-no-kernels: $(BIN)/.installed
+	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(BIN)/python -m pytest -q -m no_kernels tests
+
+lint-then-no-kernels: lint
+	$(MAKE) --no-print-directory test-no-kernels
 
 # One BLAS/OpenMP thread per rank: NP ranks of threaded BLAS oversubscribe the cores.
 test-mpi: $(BIN)/.installed
 	OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 $(BIN)/mpiexec -n $(NP) $(BIN)/python -m pytest -q tests
 
-# The kernels compiled once, while the lint runs, before the tests' processes start (about 2 min
-# of numba on a fresh clone; every process after it, pytest workers and mpiexec ranks, loads the
-# cache instead of compiling the same kernels side by side).
+# The kernels compiled once, while the lint and the no_kernels tests run, before the tests'
+# processes start (about 2 min of numba on a fresh clone; every process after it, pytest
+# workers and mpiexec ranks, loads the cache instead of compiling the same kernels side by
+# side).
 warm: $(BIN)/.installed
 	@d=$$(mktemp -d) && OMP_NUM_THREADS=1 $(BIN)/crane-fem run demos/bar_impact.toml -o $$d/bar \
 		--no-progress > $$d/log 2>&1 || { cat $$d/log; rm -rf $$d; exit 1; }; rm -rf $$d
 	@echo "make warm: the kernels are compiled and cached"
 
 test: $(BIN)/.installed
-	$(MAKE) --no-print-directory -j2 lint warm
-	$(MAKE) --no-print-directory test-serial
+	$(MAKE) --no-print-directory -j2 lint-then-no-kernels warm
+	$(MAKE) --no-print-directory test-serial SERIAL_SELECT='-m "not no_kernels"'
 	$(MAKE) --no-print-directory test-mpi
 
 # The main job: the crane scene heterogeneous (gc-mean, m = 100, 10 at impacts) and fully

@@ -11,6 +11,8 @@ from crane_fem.bench.common import Outcome, demo, explicit_settings
 from crane_fem.bench.ensemble import conditioning, judge, second_take_off
 from crane_fem.tolerances import Check, judge_runs, worst
 
+pytestmark = pytest.mark.no_kernels
+
 
 def _run(peak: float, count: int, stress: float, onsets: list[float]) -> Outcome:
     wheel = {

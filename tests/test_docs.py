@@ -36,6 +36,8 @@ from crane_fem.cli import _parser
 from crane_fem.errors import ScenarioError
 from crane_fem.scenario import MODEL_KINDS, Scenario, load_scenario, parse_scenario
 
+pytestmark = pytest.mark.no_kernels
+
 ROOT = Path(__file__).resolve().parents[1]
 COMMAND_DOCS = ("README.md", "docs/user-guide.md")
 TOML_DOCS = ("docs/user-guide.md", "docs/scenarios.md")

@@ -33,7 +33,7 @@ from crane_fem.plotting.runs import figure_title
 from crane_fem.plotting.wheels import WHEEL_RTOL, group_label
 
 matplotlib.use("Agg")
-pytestmark = pytest.mark.serial
+pytestmark = [pytest.mark.serial, pytest.mark.no_kernels]
 
 ENERGY = ["kinetic", "internal", "external_work", "damping_dissipated", "total"]
 

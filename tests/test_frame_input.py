@@ -20,7 +20,7 @@ from conftest import COMM, error_line, jobs_on_two_ranks
 from crane_fem.cli import main
 from crane_fem.geometry.frame_sketch import FrameSketch
 
-pytestmark = pytest.mark.gmsh
+pytestmark = [pytest.mark.gmsh, pytest.mark.no_kernels]
 
 
 SCENE = """\

@@ -21,7 +21,7 @@ from crane_fem.errors import ScenarioError
 from crane_fem.modes import run_modes
 from crane_fem.scenario import parse_scenario
 
-pytestmark = pytest.mark.gmsh
+pytestmark = [pytest.mark.gmsh, pytest.mark.no_kernels]
 
 #: The cantilever: steel, L = 4 m along x, b = 0.05 m (across, y) × h = 0.1 m (vertical, z).
 E, RHO, L, B, H = 2.1e11, 7800.0, 4.0, 0.05, 0.1

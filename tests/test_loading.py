@@ -8,6 +8,8 @@ import pytest
 from crane_fem.errors import ScenarioError
 from crane_fem.loading import bundled, rayleigh_from_damping, read_at2, read_csv, synthetic
 
+pytestmark = pytest.mark.no_kernels
+
 
 @pytest.mark.parametrize(
     ("name", "npts"),

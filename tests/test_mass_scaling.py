@@ -14,6 +14,8 @@ from crane_fem.mass_scaling import scale_density
 from crane_fem.model import StructuralModel, assemble_operators
 from crane_fem.stability import max_frequency
 
+pytestmark = pytest.mark.no_kernels
+
 E, NU, RHO = 2.1e11, 0.3, 7800.0
 
 

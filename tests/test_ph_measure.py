@@ -5,6 +5,8 @@ import pytest
 
 from crane_fem.coupling.ph_energy import mode_coefficients, refined_eigh
 
+pytestmark = pytest.mark.no_kernels
+
 
 def _storage(c, x, v, f):
     kappa, c_xx, c_xf, c_ff = c

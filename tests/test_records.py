@@ -34,6 +34,8 @@ from crane_fem.records.seeds import (
 from crane_fem.records.targets import Ec8Target, ec8_eta, ec8_spectrum, parse_target
 from crane_fem.spectra import G, response_spectrum
 
+pytestmark = pytest.mark.no_kernels
+
 # ---------------------------------------------------------------- EC8 spectrum, by hand
 
 

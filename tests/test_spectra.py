@@ -24,6 +24,8 @@ from crane_fem.spectra import (
     write_spectra_csv,
 )
 
+pytestmark = pytest.mark.no_kernels
+
 FloatArray = npt.NDArray[np.float64]
 Response = Callable[[FloatArray], FloatArray]
 

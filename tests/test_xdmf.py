@@ -13,6 +13,8 @@ from mpi4py import MPI
 from crane_fem.formulations import SolidVonMises
 from crane_fem.io.xdmf import XDMFSeries, read_xdmf, truncate_xdmf, xdmf_frames
 
+pytestmark = pytest.mark.no_kernels
+
 E, NU = 2.0e11, 0.3
 #: A uniform displacement gradient (the field is t·A·x): a constant strain, so the von Mises
 #: stress of every cell is known exactly.
