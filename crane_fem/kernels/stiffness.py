@@ -27,6 +27,80 @@ def load_at(z: Zone, coef: FloatArray, i: int) -> float:
     return f
 
 
+@numba.njit(cache=True, inline="always")
+def _update3(
+    i: int,
+    s0: float,
+    s1: float,
+    s2: float,
+    vh: FloatArray,
+    ku: FloatArray,
+    minv: FloatArray,
+    mass: FloatArray,
+    base: FloatArray,
+    shapes: FloatArray,
+    coef: FloatArray,
+    alpha: float,
+    h: float,
+) -> tuple[float, float]:
+    """The free velocity (1.2) of the three rows from ``i`` whose K U sums are ``s0, s1, s2``
+    (written to ``ku``), the load F(t_j) = base + Σ_k coef_k shapes_k written out per
+    component; returns their terms of Σ (V_old + V_free)·F and Σ (V_old + V_free)·C V_old.
+    Inlined in Numba's IR: the caller's fastmath flags apply."""
+    f0 = base[i]
+    f1 = base[i + 1]
+    f2 = base[i + 2]
+    for k in range(coef.size):
+        ck = coef[k]
+        f0 = f0 + ck * shapes[k, i]
+        f1 = f1 + ck * shapes[k, i + 1]
+        f2 = f2 + ck * shapes[k, i + 2]
+    v0 = vh[i]
+    v1 = vh[i + 1]
+    v2 = vh[i + 2]
+    c0 = alpha * mass[i] * v0
+    c1 = alpha * mass[i + 1] * v1
+    c2 = alpha * mass[i + 2] * v2
+    w0 = v0 + h * minv[i] * (f0 - s0 - c0)
+    w1 = v1 + h * minv[i + 1] * (f1 - s1 - c1)
+    w2 = v2 + h * minv[i + 2] * (f2 - s2 - c2)
+    vh[i] = w0
+    vh[i + 1] = w1
+    vh[i + 2] = w2
+    ku[i] = s0
+    ku[i + 1] = s1
+    ku[i + 2] = s2
+    ext = ((v0 + w0) * f0 + (v1 + w1) * f1) + (v2 + w2) * f2
+    damp = ((v0 + w0) * c0 + (v1 + w1) * c1) + (v2 + w2) * c2
+    return ext, damp
+
+
+@numba.njit(cache=True, inline="always")
+def _update1(
+    i: int,
+    s: float,
+    vh: FloatArray,
+    ku: FloatArray,
+    minv: FloatArray,
+    mass: FloatArray,
+    base: FloatArray,
+    shapes: FloatArray,
+    coef: FloatArray,
+    alpha: float,
+    h: float,
+) -> tuple[float, float]:
+    """:func:`_update3` for one scalar row (bars, beams)."""
+    f = base[i]
+    for k in range(coef.size):
+        f = f + coef[k] * shapes[k, i]
+    v = vh[i]
+    cv = alpha * mass[i] * v
+    w = v + h * minv[i] * (f - s - cv)
+    vh[i] = w
+    ku[i] = s
+    return (v + w) * f, (v + w) * cv
+
+
 @numba.njit(cache=True)
 def stiffness_velocity(z: Zone, st: ZoneState) -> None:
     """K V_{j−1/2} on the owned rows into ``st.kv`` (stiffness-proportional damping only; V's
@@ -64,7 +138,6 @@ def _rows3(
     component, the energy sums accumulated per block row."""
     ext = 0.0
     damp = 0.0
-    n_shape = coef.size
     for rr in range(rows.size):
         r = rows[rr]
         s0 = 0.0
@@ -80,31 +153,9 @@ def _rows3(
             s1 += data[jj, 1, 0] * x0 + data[jj, 1, 1] * x1 + data[jj, 1, 2] * x2
             s2 += data[jj, 2, 0] * x0 + data[jj, 2, 1] * x1 + data[jj, 2, 2] * x2
         i = 3 * r
-        f0 = base[i]
-        f1 = base[i + 1]
-        f2 = base[i + 2]
-        for k in range(n_shape):
-            ck = coef[k]
-            f0 = f0 + ck * shapes[k, i]
-            f1 = f1 + ck * shapes[k, i + 1]
-            f2 = f2 + ck * shapes[k, i + 2]
-        v0 = vh[i]
-        v1 = vh[i + 1]
-        v2 = vh[i + 2]
-        c0 = alpha * mass[i] * v0
-        c1 = alpha * mass[i + 1] * v1
-        c2 = alpha * mass[i + 2] * v2
-        w0 = v0 + h * minv[i] * (f0 - s0 - c0)
-        w1 = v1 + h * minv[i + 1] * (f1 - s1 - c1)
-        w2 = v2 + h * minv[i + 2] * (f2 - s2 - c2)
-        vh[i] = w0
-        vh[i + 1] = w1
-        vh[i + 2] = w2
-        ku_out[i] = s0
-        ku_out[i + 1] = s1
-        ku_out[i + 2] = s2
-        ext += ((v0 + w0) * f0 + (v1 + w1) * f1) + (v2 + w2) * f2
-        damp += ((v0 + w0) * c0 + (v1 + w1) * c1) + (v2 + w2) * c2
+        e, d = _update3(i, s0, s1, s2, vh, ku_out, minv, mass, base, shapes, coef, alpha, h)
+        ext += e
+        damp += d
     return ext, damp
 
 
@@ -134,7 +185,6 @@ def _rows3_upper(
         ku[i] = 0.0
     ext = 0.0
     damp = 0.0
-    n_shape = coef.size
     for r in range(nb):
         i = 3 * r
         r0 = u[i]
@@ -166,31 +216,9 @@ def _rows3_upper(
             ku[c] += a00 * r0 + a10 * r1 + a20 * r2
             ku[c + 1] += a01 * r0 + a11 * r1 + a21 * r2
             ku[c + 2] += a02 * r0 + a12 * r1 + a22 * r2
-        f0 = base[i]
-        f1 = base[i + 1]
-        f2 = base[i + 2]
-        for k in range(n_shape):
-            ck = coef[k]
-            f0 = f0 + ck * shapes[k, i]
-            f1 = f1 + ck * shapes[k, i + 1]
-            f2 = f2 + ck * shapes[k, i + 2]
-        v0 = vh[i]
-        v1 = vh[i + 1]
-        v2 = vh[i + 2]
-        c0 = alpha * mass[i] * v0
-        c1 = alpha * mass[i + 1] * v1
-        c2 = alpha * mass[i + 2] * v2
-        w0 = v0 + h * minv[i] * (f0 - s0 - c0)
-        w1 = v1 + h * minv[i + 1] * (f1 - s1 - c1)
-        w2 = v2 + h * minv[i + 2] * (f2 - s2 - c2)
-        vh[i] = w0
-        vh[i + 1] = w1
-        vh[i + 2] = w2
-        ku[i] = s0
-        ku[i + 1] = s1
-        ku[i + 2] = s2
-        ext += ((v0 + w0) * f0 + (v1 + w1) * f1) + (v2 + w2) * f2
-        damp += ((v0 + w0) * c0 + (v1 + w1) * c1) + (v2 + w2) * c2
+        e, d = _update3(i, s0, s1, s2, vh, ku, minv, mass, base, shapes, coef, alpha, h)
+        ext += e
+        damp += d
     return ext, damp
 
 
@@ -214,22 +242,14 @@ def _rows1(
     """:func:`_rows3` for bs = 1 (bars): scalar rows, PETSc's AIJ summation order."""
     ext = 0.0
     damp = 0.0
-    n_shape = coef.size
     for rr in range(rows.size):
         i = rows[rr]
         s = 0.0
         for jj in range(indptr[i], indptr[i + 1]):
             s += data[jj, 0, 0] * u[indices[jj]]
-        f = base[i]
-        for k in range(n_shape):
-            f = f + coef[k] * shapes[k, i]
-        v = vh[i]
-        c = alpha * mass[i] * v
-        w = v + h * minv[i] * (f - s - c)
-        vh[i] = w
-        ku_out[i] = s
-        ext += (v + w) * f
-        damp += (v + w) * c
+        e, d = _update1(i, s, vh, ku_out, minv, mass, base, shapes, coef, alpha, h)
+        ext += e
+        damp += d
     return ext, damp
 
 
@@ -255,7 +275,6 @@ def _rows6(
     ``rows``."""
     ext = 0.0
     damp = 0.0
-    n_shape = coef.size
     for rr in range(rows.size):
         r = rows[rr]
         for a in range(6):
@@ -263,16 +282,9 @@ def _rows6(
             s = 0.0
             for jj in range(indptr[i], indptr[i + 1]):
                 s += data[jj] * u[indices[jj]]
-            f = base[i]
-            for k in range(n_shape):
-                f = f + coef[k] * shapes[k, i]
-            v = vh[i]
-            cv = alpha * mass[i] * v
-            w = v + h * minv[i] * (f - s - cv)
-            vh[i] = w
-            ku_out[i] = s
-            ext += (v + w) * f
-            damp += (v + w) * cv
+            e, d = _update1(i, s, vh, ku_out, minv, mass, base, shapes, coef, alpha, h)
+            ext += e
+            damp += d
     return ext, damp
 
 
@@ -419,7 +431,6 @@ def free_rows(
     data, indices, indptr = z.data, z.indices, z.indptr
     mass, minv, base, shapes = z.mass, z.minv, z.load_base, z.load_shapes
     alpha, beta, bs = z.alpha, z.beta, z.bs
-    n_shape = coef.size
     ext = 0.0
     damp = 0.0
     ks = np.zeros(bs)
@@ -455,7 +466,7 @@ def free_rows(
             i = bs * r + a
             ku = ks[a]
             f = base[i]
-            for k in range(n_shape):
+            for k in range(coef.size):
                 f = f + coef[k] * shapes[k, i]
             v_old = vh[i]
             cv = alpha * mass[i] * v_old
