@@ -52,7 +52,7 @@ def _all_solvers(W: np.ndarray, q: np.ndarray, mu: float) -> dict[str, np.ndarra
     assert kf.solve_coulomb(W, q, ptr, mus, r)[0] <= kf.TOL
     out["compiled newton"] = r
     r = np.zeros(m)
-    assert kf.solve_point(W, q, mu, r)
+    assert kf.solve_point(W, q, mu, r, False)
     out["compiled enumeration"] = r
     if np.array_equal(W, W[0, 0] * np.eye(m)):
         out["closed form"] = nf.coulomb_point(q, float(W[0, 0]), mu)

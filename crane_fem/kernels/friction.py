@@ -422,6 +422,9 @@ def solve_coulomb(
     for i in range(m):
         res = max(res, abs(phi[i]))
     if res > TOL * scale:
+        # The general path's flag as a boolean value: a literal False is a type of its own,
+        # for which numba would compile solve_point (and its callees) a second time.
+        general = m < 0
         for _ in range(MAX_SWEEPS):
             for a in range(na):
                 i0, i1 = ptr[a], ptr[a + 1]
@@ -430,7 +433,7 @@ def solve_coulomb(
                     for j in range(m):
                         if j < i0 or j >= i1:
                             qa[i - i0] += W[i, j] * r[j]
-                solve_point(np.ascontiguousarray(W[i0:i1, i0:i1]), qa, mu[a], r[i0:i1], False)
+                solve_point(np.ascontiguousarray(W[i0:i1, i0:i1]), qa, mu[a], r[i0:i1], general)
             _alart_curnier(W, q, ptr, mu, r, phi, J)
             res = 0.0
             for i in range(m):
