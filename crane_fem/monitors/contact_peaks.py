@@ -52,19 +52,25 @@ class ContactPeaksMonitor:
         if last or self._n_pending >= BATCH:
             self._take()
 
-    def _take(self) -> None:
-        """The gathered micro steps into the peaks, as one trace."""
-        if not self._pending:
-            return
+    def _joined(self) -> MicroTrace:
+        """The gathered micro steps as one trace."""
         if len(self._pending) == 1:
-            m = self._pending[0]
+            return self._pending[0]
+        if not self._pending:
+            return MicroTrace.empty(len(self.contacts.group_names))
+        traces = self._pending
+        return MicroTrace(
+            np.concatenate([m.t for m in traces]),
+            np.concatenate([m.active for m in traces]),
+            np.concatenate([m.impulse for m in traces]),
+            np.concatenate([m.gap for m in traces]),
+        )
+
+    def _take(self) -> None:
+        """The gathered micro steps into the peaks."""
+        if self._pending:
+            m = self._joined()
             self.peaks.update(m.t, m.impulse, m.gap)
-        else:
-            self.peaks.update(
-                np.concatenate([m.t for m in self._pending]),
-                np.concatenate([m.impulse for m in self._pending]),
-                np.concatenate([m.gap for m in self._pending]),
-            )
         self._pending.clear()
         self._n_pending = 0
 
@@ -73,14 +79,13 @@ class ContactPeaksMonitor:
         summary.update(peak_tables(self.peaks))
 
     def state_dict(self) -> dict[str, Any]:
-        out = self.peaks.state_dict()
-        n = len(self.contacts.group_names)
-        pending = self._pending or [MicroTrace.empty(n)]
-        t = np.concatenate([m.t for m in pending])
-        out["pending_t"] = t
-        out["pending_impulse"] = np.concatenate([m.impulse for m in pending]).reshape(t.size, n)
-        out["pending_gap"] = np.concatenate([m.gap for m in pending]).reshape(t.size, n)
-        return out
+        m = self._joined()
+        return {
+            **self.peaks.state_dict(),
+            "pending_t": m.t,
+            "pending_impulse": m.impulse,
+            "pending_gap": m.gap,
+        }
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.peaks.load_state_dict(state)
