@@ -242,23 +242,24 @@ class SupportReactions:
             self.initial = f
             at = self.columns
             self.static = self._residual(u[at], v[at], np.zeros(at.size), np.zeros(3))
-            self._keep_peaks(t, f)
+            self._keep_peaks(np.array([t]), f[None])
         elif not observed:
-            self._keep_peaks(t, f)
+            self._keep_peaks(np.array([t]), f[None])
         return f
 
-    def _keep_peaks(self, t: float, f: FloatArray) -> None:
+    def _keep_peaks(self, times: FloatArray, f: FloatArray) -> None:
+        """The peak force magnitude and |vertical force| of each face over the forces ``f``
+        (m, n_faces, bs) at ``times`` (m,), in order (the first of equal values)."""
         n_t = self.translations
-        ft = f[:, :n_t]
-        norm = np.sqrt(np.einsum("ij,ij->i", ft, ft))
-        vert = np.abs(f[:, n_t - 1])
-        # (most observations beat no peak: two comparisons)
-        better = norm > self.peak
-        if better.any():
-            self.peak[better], self.t_peak[better] = norm[better], t
-        better = vert > self.peak_vertical
-        if better.any():
-            self.peak_vertical[better], self.t_vertical[better] = vert[better], t
+        ft = f[:, :, :n_t]
+        for values, peak, when in (
+            (np.sqrt(np.einsum("mij,mij->mi", ft, ft)), self.peak, self.t_peak),
+            (np.abs(f[:, :, n_t - 1]), self.peak_vertical, self.t_vertical),
+        ):
+            j = np.argmax(values, axis=0)
+            best = values[j, np.arange(self.n_faces)]
+            better = best > peak
+            peak[better], when[better] = best[better], times[j[better]]
 
     def track(self, t: float, u: FloatArray, v: FloatArray, ground: FloatArray) -> None:
         """Evaluate the faces' forces at ``t`` and keep their peaks (collective): ``u``, ``v``
@@ -295,17 +296,8 @@ class SupportReactions:
         f = r.reshape(m, self.n_faces, self.bs)
         self._track_v, self._track_t = np.array(v[-1], dtype=np.float64), float(times[-1])
         self._track_f = f[-1].copy()
-        if self.initial is None:
-            return
-        ft = f[:, :, :n_t]
-        for values, peak, when in (
-            (np.sqrt(np.einsum("mij,mij->mi", ft, ft)), self.peak, self.t_peak),
-            (np.abs(f[:, :, n_t - 1]), self.peak_vertical, self.t_vertical),
-        ):
-            j = np.argmax(values, axis=0)  # (the first of equal values: as one by one)
-            best = values[j, np.arange(self.n_faces)]
-            better = best > peak
-            peak[better], when[better] = best[better], times[j[better]]
+        if self.initial is not None:
+            self._keep_peaks(times, f)
 
     def state_dict(self) -> dict[str, Any]:
         """The peaks, the first forces and the last velocities (a checkpoint; the velocities
