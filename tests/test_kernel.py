@@ -12,6 +12,7 @@ from conftest import COMM, make_scenario
 
 from crane_fem.contact import ContactSet, solve_lcp
 from crane_fem.coupling.operator import create_interface_operator
+from crane_fem.errors import CraneFemError
 from crane_fem.integrators.explicit_zone import ExplicitZone
 from crane_fem.kernels import explicit as kx
 from crane_fem.kernels import reference as twin
@@ -152,6 +153,95 @@ def test_coupled_contacts_and_an_interface_row_on_a_contact_dof() -> None:
     )
     _compare(Z, ctl)
     Z.destroy()
+
+
+def test_interface_rows_sharing_dofs() -> None:
+    """Two interface rows on the same two DOFs (W_ΓΓ full, as a rigid section's six rows on
+    one face) beside a contact on one of them: the kernel's interface bookkeeping (L V =
+    q + W Λ with W_ΓΓ's terms off the diagonal) and its solve through the folded operator
+    against the twin, solved and imposed."""
+    E = _bar(time={"end": 0.5})
+    d0 = int(E.contacts.dofs[0])
+    rows = ContactSet(
+        COMM,
+        np.zeros(2),
+        np.array([0, 0, 1, 1]),
+        np.array([d0 + 1, d0 + 2, d0 + 1, d0 + 2]),
+        np.array([1.0, 1.0, 0.5, -1.5]),
+        np.zeros(2, np.int64),
+        ["interface"],
+    )
+    v0 = np.full(E.model.n_owned, -1.0)
+    Z = ExplicitZone(E.model, E.load, E.dt, np.zeros_like(v0), v0, rows, E.contacts)
+    assert Z.zone.gg_ptr.size == 3 and Z.zone.gg_col.size == 2
+    W_E = Z.W[:2, :2]
+    W_I = 0.3 * W_E + np.diag([0.1, 0.2]) * float(np.max(W_E))
+    op, _ = create_interface_operator(W_E, W_I, 0.5, 10)
+    j = np.arange(1, 61)
+    ctl = Z.steps(
+        0.0,
+        60,
+        mode=kx.SOLVED,
+        targets=(np.array([-0.2, 0.1]), np.array([0.1, 0.0])),
+        tc=np.column_stack([1.0 - j / 60, j / 60]),
+        k_op=(j % 10 + 1).astype(float),
+        keep_impulses=True,
+    )
+    _compare(Z, ctl, op)
+    ctl = Z.steps(
+        60 * Z.dt,
+        40,
+        mode=kx.IMPOSED,
+        imposed=(np.array([0.3, 0.0]), np.array([-0.1, 0.2])),
+        ic=np.column_stack([np.ones(40), np.linspace(0.0, 1.0, 40)]),
+    )
+    _compare(Z, ctl)
+    Z.destroy()
+    dependent = ContactSet(
+        COMM,
+        np.zeros(2),
+        np.array([0, 1]),
+        np.array([d0 + 1, d0 + 1]),
+        np.array([1.0, 2.0]),
+        np.zeros(2, np.int64),
+        ["interface"],
+    )
+    with pytest.raises(CraneFemError, match="independent"):
+        ExplicitZone(E.model, E.load, E.dt, np.zeros_like(v0), v0, dependent, E.contacts)
+
+
+def test_interface_operator_with_coupled_explicit_rows() -> None:
+    """W_E,ΓΓ block diagonal (6 × 6 blocks, a rigid section's rows per face): A_k⁻¹ through
+    the Cholesky fold against the inverse of W_E + 2kγ W_I, for every k and for k = m only;
+    a truncation, or blocks that split a face's rows, refused."""
+    rng = np.random.default_rng(2)
+    n, gamma, m = 24, 0.5, 20
+    blocks = np.repeat([0, 1], n // 2)
+    W_E = np.zeros((n, n))
+    W_I = np.zeros((n, n))
+    for f in range(n // 6):
+        sel = slice(6 * f, 6 * f + 6)
+        A = rng.standard_normal((6, 6))
+        W_E[sel, sel] = A @ A.T + 6.0 * np.eye(6)
+    for b in (0, 1):
+        sel = blocks == b
+        B = rng.standard_normal((n // 2, n // 2))
+        W_I[np.ix_(sel, sel)] = 0.05 * (B @ B.T)
+    for fixed in (False, True):
+        op, _ = create_interface_operator(W_E, W_I, gamma, m, blocks, fixed=fixed)
+        for k in (1.0, 7.0, float(m)) if not fixed else (float(m),):
+            exact = np.linalg.inv(W_E + 2 * k * gamma * W_I)
+            assert np.max(np.abs(twin.operator_matrix(op, k) - exact)) <= 1e-12 * np.max(
+                np.abs(exact)
+            )
+            x = rng.standard_normal(n)
+            y = np.zeros(n)
+            kx.apply_operator(op, k, x, y)
+            assert np.max(np.abs(y - exact @ x)) <= 1e-12 * np.max(np.abs(exact @ x))
+    with pytest.raises(ValueError, match="truncation"):
+        create_interface_operator(W_E, W_I, gamma, m, blocks, truncation=0.05)
+    with pytest.raises(ValueError, match="split"):
+        create_interface_operator(W_E, W_I, gamma, m, np.arange(n) % 2)
 
 
 @pytest.fixture(scope="module")

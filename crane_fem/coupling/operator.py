@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+import scipy.linalg
 
 from crane_fem.kernels.explicit import InterfaceOp
 
@@ -60,8 +61,15 @@ def create_interface_operator(
 ) -> tuple[InterfaceOp, OperatorReport]:
     """Diagonalise A_k once, block by block (not collective: every rank holds the inputs).
 
+    With interface rows that share DOFs (a rigid section's six on one face) W_E,ΓΓ is block
+    diagonal, not diagonal: on each block W_E = C Cᵀ (Cholesky) and A_k = C (I + 2kγ S) Cᵀ
+    with S = C⁻¹ W_I C⁻ᵀ = Q diag(s) Qᵀ, so A_k⁻¹ = Q̃ diag(1/(1 + 2kγ s)) Q̃ᵀ with Q̃ = C⁻ᵀ Q:
+    the same products, with the scaling folded into Q̃ (``dis`` = 1). Its blocks must hold
+    each group of coupled rows whole.
+
     Args:
-        w_gamma: the diagonal of W_E,ΓΓ (n_Γ), positive.
+        w_gamma: the diagonal of W_E,ΓΓ (n_Γ), positive; or W_E,ΓΓ itself (n_Γ × n_Γ),
+            symmetric positive definite, when it is not diagonal.
         W_I: L_I M̃⁻¹ L_Iᵀ (n_Γ × n_Γ), symmetric.
         gamma: Newmark γ of the implicit side.
         m: the largest k the operator is used with (the ratio).
@@ -71,11 +79,21 @@ def create_interface_operator(
         fixed: the operator serves k = m only (gc-mean): each block stored as A_m⁻¹ itself,
             one product per solve instead of two (without truncation, which it makes moot).
     """
+    W_E = None
+    if w_gamma.ndim == 2:
+        W_E, w_gamma = w_gamma, np.diag(w_gamma).copy()
+        if not np.any(W_E - np.diag(w_gamma)):
+            W_E = None  # diagonal after all
     n_g = w_gamma.size
     if not 0.0 <= truncation < 1.0:
         raise ValueError(f"interface truncation must be in [0, 1), got {truncation}")
     labels = np.zeros(n_g, dtype=np.int64) if blocks is None else np.asarray(blocks, np.int64)
-    dis = 1.0 / np.sqrt(w_gamma)
+    if W_E is not None:
+        if truncation > 0.0:
+            raise ValueError("interface truncation needs interface rows on distinct DOFs")
+        if np.any(W_E[labels[:, None] != labels[None, :]]):
+            raise ValueError("interface blocks split rows that share DOFs")
+    dis = 1.0 / np.sqrt(w_gamma) if W_E is None else np.ones(n_g)
     order = np.argsort(labels, kind="stable")
     uniq, starts = np.unique(labels[order], return_index=True)
     ptr = np.append(starts, n_g).astype(np.int64)
@@ -85,8 +103,15 @@ def create_interface_operator(
         rows = order[ptr[b] : ptr[b + 1]]
         outside[np.ix_(rows, rows)] = 0.0
         ds = dis[rows]
-        S = ds[:, None] * W_I[np.ix_(rows, rows)] * ds[None, :]
+        if W_E is None:
+            S = ds[:, None] * W_I[np.ix_(rows, rows)] * ds[None, :]
+        else:
+            C = np.linalg.cholesky(W_E[np.ix_(rows, rows)])
+            Ci = scipy.linalg.solve_triangular(C, np.eye(rows.size), lower=True)
+            S = Ci @ W_I[np.ix_(rows, rows)] @ Ci.T
         s, Q = np.linalg.eigh(0.5 * (S + S.T))
+        if W_E is not None:
+            Q = Ci.T @ Q  # Q̃ = C⁻ᵀ Q (ds = 1)
         if fixed:
             f = 1.0 / (1.0 + 2.0 * m * gamma * s)
             B = ds[:, None] * ((Q * f) @ Q.T) * ds[None, :]

@@ -16,6 +16,7 @@ of one face: six unknowns.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import dolfinx
@@ -24,9 +25,11 @@ import numpy.typing as npt
 import ufl
 from mpi4py import MPI
 
+from crane_fem.contact import ContactSet
 from crane_fem.errors import ScenarioError
+from crane_fem.subdomains import Subdomain
 
-__all__ = ["FaceRows", "face_rows"]
+__all__ = ["CENTROID_TOL", "FaceRows", "face_rows", "joint_interface"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -34,6 +37,9 @@ IntArray = npt.NDArray[np.int64]
 #: A joint face is planar when its vertices lie within this fraction of its size of the plane
 #: through its centroid normal to its least second moment of area's axis.
 PLANAR_TOL = 1e-6
+#: A beam node joins a face when it lies within this fraction of the face's size (√|S|) of
+#: its centroid.
+CENTROID_TOL = 0.01
 
 
 @dataclass(frozen=True)
@@ -159,3 +165,57 @@ def _check_planar(
             f"joint face {name!r} is not planar: a vertex lies {off:.3g} m off its plane "
             f"(at most {PLANAR_TOL:g} of its size, {size:.3g} m)"
         )
+
+
+def joint_interface(
+    solid: Subdomain,
+    beam: Subdomain,
+    faces: Sequence[FaceRows],
+    nodes: IntArray,
+    node_x: FloatArray,
+    names: Sequence[str],
+) -> tuple[ContactSet, ContactSet]:
+    """The GC interface of joints (collective): face ``faces[j]`` of the solid subdomain (its
+    rows made on ``solid.V``) tied to the beam subdomain's node of global parent vertex
+    ``nodes[j]`` at ``node_x[j]``; rows 6j + 0…5, L_E on the face's nodes and L_I =
+    −diag(|S| 1, I_G) on the node's six DOFs, so that L_E V_E + L_I V_I = 0 is the rigid
+    section's tie in velocities (six unknowns per face).
+
+    Raises:
+        ScenarioError: a node farther than :data:`CENTROID_TOL` of its face's size from the
+            face's centroid, or a node that is not one of the beam subdomain's vertices.
+    """
+    comm = solid.submesh.comm
+    n = len(faces)
+    e_rows, e_dofs, e_vals, i_rows, i_dofs, i_vals = [], [], [], [], [], []
+    for j, (face, node, x, name) in enumerate(zip(faces, nodes, node_x, names, strict=True)):
+        size = float(np.sqrt(face.area))
+        off = float(np.linalg.norm(np.asarray(x, dtype=np.float64) - face.centroid))
+        if off > CENTROID_TOL * size:
+            raise ScenarioError(
+                f"joint {name!r}: the beam node lies {off:.3g} m from the face's centroid "
+                f"(at most {CENTROID_TOL:g} of the face's size, {size:.3g} m)"
+            )
+        e_rows.append(6 * j + face.rows)
+        e_dofs.append(face.dofs)
+        e_vals.append(face.coeffs)
+        blocks, _ = beam.owned_dofs_of(np.array([node], dtype=np.int64))
+        found = comm.allreduce(int(blocks.size), op=MPI.SUM)
+        if found != 1:
+            raise ScenarioError(f"joint {name!r}: its node is not a vertex of the beams")
+        for b in blocks:
+            r, c = np.nonzero(face.beam_block)
+            i_rows.append(6 * j + r)
+            i_dofs.append(int(b) * beam.bs + c)
+            i_vals.append(-face.beam_block[r, c])
+    g0 = np.zeros(6 * n)
+    group = np.zeros(6 * n, dtype=np.int64)
+
+    def ints(a: list[IntArray]) -> IntArray:
+        return np.concatenate(a).astype(np.int64) if a else np.zeros(0, np.int64)
+
+    def rows(r: list[IntArray], d: list[IntArray], v: list[FloatArray]) -> ContactSet:
+        vals = np.concatenate(v).astype(np.float64) if v else np.zeros(0)
+        return ContactSet(comm, g0, ints(r), ints(d), vals, group, ["interface"])
+
+    return rows(e_rows, e_dofs, e_vals), rows(i_rows, i_dofs, i_vals)

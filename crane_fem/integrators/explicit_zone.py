@@ -161,6 +161,15 @@ def _friction_arrays(
     )
 
 
+def _positive_definite(W: FloatArray) -> bool:
+    """Whether the symmetric ``W`` is positive definite (Cholesky)."""
+    try:
+        np.linalg.cholesky(0.5 * (W + W.T))
+    except np.linalg.LinAlgError:
+        return False
+    return True
+
+
 def constraint_arrays(
     model: StructuralModel, interface: ContactSet, contacts: ContactSet
 ) -> dict[str, Any]:
@@ -171,17 +180,22 @@ def constraint_arrays(
     (:meth:`ExplicitZone.set_contacts`): the kernel, compiled for these types, is reused.
 
     Raises:
-        CraneFemError: interface rows that share DOFs, or friction on an interface DOF.
+        CraneFemError: interface rows on a fixed DOF or dependent ones (rows may share DOFs,
+            a rigid section's six on one face, when their Delassus block stays positive
+            definite), or friction on an interface DOF.
     """
     n_g = interface.p
     stack = ContactSet.stack(interface, contacts)
     W = stack.delassus(model.minv)
-    w_gamma = np.diag(W[:n_g, :n_g]).copy()
-    if np.any(W[:n_g, :n_g] != np.diag(w_gamma)) or np.any(w_gamma <= 0.0):
+    W_gg = W[:n_g, :n_g]
+    w_gamma = np.diag(W_gg).copy()
+    off = W_gg - np.diag(w_gamma)
+    if np.any(w_gamma <= 0.0) or (np.any(off) and not _positive_definite(W_gg)):
         raise CraneFemError(
-            "explicit zone: the interface rows must act on distinct free DOFs (their "
-            "Delassus block is then diagonal and positive)"
+            "explicit zone: the interface rows must act on free DOFs and be independent "
+            "(their Delassus block positive definite)"
         )
+    r_gg, c_gg = np.nonzero(off)  # row-major: CSR by row
     W_cc = np.ascontiguousarray(W[n_g:, n_g:])
     W_ec = np.ascontiguousarray(W[:n_g, n_g:])
     fr = _friction_arrays(contacts, model.minv, W_cc, interface)
@@ -208,6 +222,11 @@ def constraint_arrays(
         "c_group": np.ascontiguousarray(contacts.group, dtype=np.int64),
         "n_groups": len(contacts.group_names),
         "w_gamma": w_gamma,
+        "gg_ptr": np.searchsorted(r_gg, np.arange(n_g + 1)).astype(np.int64)
+        if r_gg.size
+        else np.zeros(0, dtype=np.int64),
+        "gg_col": c_gg.astype(np.int64),
+        "gg_val": np.ascontiguousarray(off[r_gg, c_gg], dtype=np.float64),
         "W_cc": W_cc,
         "W_cc_inv": np.zeros((0, 0)),
         "W_ec": W_ec,

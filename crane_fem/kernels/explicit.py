@@ -323,6 +323,9 @@ def _micro(
         trap, total, keep = out.impulse_trap, out.impulse_sum, ctl.keep_impulses
         for i in range(n_g):
             wl = w_gamma[i] * lam[i]
+            if z.gg_ptr.size > 0:
+                for k in range(z.gg_ptr[i], z.gg_ptr[i + 1]):
+                    wl += z.gg_val[k] * lam[z.gg_col[k]]
             if not z.ec_zero:
                 for c in range(pc):
                     wl += z.W_ec[i, c] * lam_c[c]

@@ -88,7 +88,8 @@ class _ZoneFields(NamedTuple):
     #: kernel sums each group's impulses and takes its smallest gap at every micro step.
     c_group: IntArray
     n_groups: int
-    #: Delassus blocks: diag of W_ΓΓ, W_cc (and its inverse for bilateral rows), W_Γc.
+    #: Delassus blocks: diag of W_ΓΓ (its terms off the diagonal, where interface rows
+    #: share DOFs, in ``gg_*``), W_cc (and its inverse for bilateral rows), W_Γc.
     w_gamma: FloatArray
     W_cc: FloatArray
     W_cc_inv: FloatArray
@@ -153,6 +154,13 @@ class _ZoneFields(NamedTuple):
     u_indptr: IntArray = np.zeros(0, dtype=np.int64)
     u_indices: npt.NDArray[np.int32] = np.zeros(0, dtype=np.int32)
     u_data: FloatArray = np.zeros(0)
+    #: W_ΓΓ's terms off its diagonal by row (CSR: ``gg_ptr`` (n_g + 1), columns, values)
+    #: where interface rows share DOFs (a rigid section's six rows on one face,
+    #: crane_fem.coupling.rigid_section); empty when W_ΓΓ is diagonal (rows on distinct
+    #: DOFs, the shared-vertex interface).
+    gg_ptr: IntArray = np.zeros(0, dtype=np.int64)
+    gg_col: IntArray = np.zeros(0, dtype=np.int64)
+    gg_val: FloatArray = np.zeros(0)
 
 
 #: Whether :class:`Zone` derives K's upper block triangle where it can (False: every zone

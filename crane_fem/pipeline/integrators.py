@@ -123,8 +123,9 @@ class _OperatorFactory:
     def __call__(
         self, E: ExplicitZone, implicit: ImplicitSide, ratio: int, fixed: bool = False
     ) -> InterfaceOp:
+        w = E.zone.w_gamma if E.zone.gg_ptr.size == 0 else E.W[: E.n_gamma, : E.n_gamma]
         op, report = create_interface_operator(
-            E.zone.w_gamma,
+            w,
             implicit.W,
             implicit.gamma,
             ratio,
