@@ -238,7 +238,7 @@ def _summary_head(sc: Scenario, sim: Simulation, comm: MPI.Comm) -> dict[str, An
         "steps": md.n_macro if md.coupled else n_steps,
         "micro_steps": n_steps,
         "sampling_interval_s": md.sample_steps * md.dt,
-        "interface_dofs": int(cons.interface_vertices.size * sub.bs),
+        "interface_dofs": int(cons.l_explicit.p),
         # Global DOF counts of each side (their ratio and n_Γ set the cost of a coupled run).
         "dofs_explicit": md.explicit.model.K.getSize()[0] if md.explicit is not None else 0,
         "dofs_implicit": md.implicit.model.K.getSize()[0] if md.implicit is not None else 0,

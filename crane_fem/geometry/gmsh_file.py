@@ -5,6 +5,7 @@ contact points."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -12,6 +13,7 @@ import dolfinx.io.gmsh
 import dolfinx.mesh
 import gmsh
 import numpy as np
+import scipy.spatial
 from mpi4py import MPI
 
 from crane_fem.errors import ScenarioError
@@ -125,7 +127,84 @@ def distribute_gmsh_model(
             gmsh.finalize()
 
 
-def create_gmsh_mesh(comm: MPI.Comm, path: str | Path) -> TaggedMesh:
+def _closure(dim_tags: list[tuple[int, int]]) -> set[tuple[int, int]]:
+    """The entities and every entity on their boundaries, down to points (gmsh initialized)."""
+    out, todo = set(dim_tags), list(dim_tags)
+    while todo:
+        d, t = todo.pop()
+        if d == 0:
+            continue
+        for e in gmsh.model.getBoundary([(d, t)], combined=False, oriented=False):
+            ent = (e[0], abs(e[1]))
+            if ent not in out:
+                out.add(ent)
+                todo.append(ent)
+    return out
+
+
+def _keep_only(dim: int) -> None:
+    """Leave in the open gmsh model only the cells of dimension ``dim`` in named groups, the
+    named groups of dimension ``dim`` and ``dim − 1``, and the mesh of their closure; the
+    other entities' meshes cleared and the nodes renumbered 1…n (dolfinx reads a model whose
+    nodes are all its cells'): the solids or the beams of a mixed model (rank 0)."""
+    groups = gmsh.model.getPhysicalGroups()
+    cells = [
+        (dim, int(t))
+        for d, g in groups
+        if d == dim
+        for t in gmsh.model.getEntitiesForPhysicalGroup(d, g)
+    ]
+    kept = _closure(cells)
+    gmsh.model.removePhysicalGroups([(d, g) for d, g in groups if d not in (dim, dim - 1)])
+    others = sorted((e for e in gmsh.model.getEntities() if e not in kept), key=lambda e: -e[0])
+    gmsh.model.mesh.clear(others)
+    gmsh.model.mesh.renumberNodes()
+    gmsh.model.mesh.renumberElements()
+
+
+def _group_nodes(dim: int, name: str) -> tuple[np.ndarray, np.ndarray]:
+    """Node tags and coordinates (n, 3) of the elements of the named group (rank 0)."""
+    tag = next(
+        g for d, g in gmsh.model.getPhysicalGroups(dim) if gmsh.model.getPhysicalName(d, g) == name
+    )
+    tags, xyz = [], []
+    for ent in gmsh.model.getEntitiesForPhysicalGroup(dim, tag):
+        nt, x, _ = gmsh.model.mesh.getNodes(dim, int(ent), includeBoundary=True)
+        tags.append(np.asarray(nt, dtype=np.int64))
+        xyz.append(np.asarray(x, dtype=np.float64).reshape(-1, 3))
+    return np.concatenate(tags), np.concatenate(xyz)
+
+
+def _touching(names: PhysicalNames, joint_nodes: Sequence[str], path: str | Path) -> str | None:
+    """A line group with a node on (or shared with) a solid's node, other than a joint's
+    node: the refusal's text, or None (rank 0, the whole model open)."""
+    solid = [_group_nodes(3, v) for v in names.volumes]
+    s_tags = np.unique(np.concatenate([t for t, _ in solid]))
+    s_xyz = np.concatenate([x for _, x in solid])
+    size = float(np.max(np.ptp(s_xyz, axis=0)))
+    tree = scipy.spatial.cKDTree(s_xyz)
+    joints = [_group_nodes(0, j)[1] for j in joint_nodes if j in names.points]
+    free = np.concatenate(joints) if joints else np.zeros((0, 3))
+    for line in names.lines:
+        tags, xyz = _group_nodes(1, line)
+        near = np.array([bool(tree.query_ball_point(x, 1e-9 * size)) for x in xyz])
+        touch = np.isin(tags, s_tags) | near
+        if free.size:
+            at_joint = np.min(np.linalg.norm(xyz[:, None, :] - free[None], axis=2), axis=1)
+            touch &= at_joint > 1e-9 * size
+        if np.any(touch):
+            x = xyz[np.flatnonzero(touch)[0]]
+            return (
+                f"model.mesh: line group {line!r} of {Path(path).name} touches a solid at "
+                f"{np.round(x, 6).tolist()}: a beam meets a solid only at a [[joint]] (its "
+                "node on the face's centroid, tied by the joint's rows)"
+            )
+    return None
+
+
+def create_gmsh_mesh(
+    comm: MPI.Comm, path: str | Path, joint_nodes: Sequence[str] = ()
+) -> TaggedMesh:
     """Read a user's ``.msh`` on rank 0 and distribute it with ghost cells across shared
     facets (contact and interface code reads its neighbours' cells); cell and facet groups
     by their physical names (collective).
@@ -148,6 +227,9 @@ def create_gmsh_mesh(comm: MPI.Comm, path: str | Path) -> TaggedMesh:
                     f"model.mesh: {path} holds 3D elements of gmsh types {_type_names(types)}; "
                     "P1 tetrahedra (type 4) only (gmsh.model.mesh.generate(3), order 1)"
                 )
+            if error is None and names.lines:  # a mixed model: its solids only
+                error = _touching(names, joint_nodes, path)
+                _keep_only(3)
         except Exception as exc:  # gmsh raises bare Exception on a corrupt file
             error = f"model.mesh: gmsh cannot read {path}: {exc}"
     data = distribute_gmsh_model(comm, error)
@@ -160,10 +242,12 @@ def create_gmsh_mesh(comm: MPI.Comm, path: str | Path) -> TaggedMesh:
     return TaggedMesh(data.mesh, data.cell_tags, facet_tags, names.volumes, names.surfaces)
 
 
-def create_frame_mesh(comm: MPI.Comm, path: str | Path) -> TaggedMesh:
+def create_frame_mesh(comm: MPI.Comm, path: str | Path, mixed: bool = False) -> TaggedMesh:
     """Read a frame's ``.msh`` (2-node lines in 3D) on rank 0 and distribute it with ghost
     cells across shared vertices (the contacts read a neighbour's cells); cell groups by the
     line groups' names, facet (vertex) groups by the point groups' (collective).
+
+    ``mixed``: the beams of a mixed model; its solids (3D and 2D elements) are left out.
 
     Raises:
         ScenarioError: the file holds elements other than 2-node lines (and points), or no
@@ -177,6 +261,8 @@ def create_frame_mesh(comm: MPI.Comm, path: str | Path) -> TaggedMesh:
         gmsh.option.setNumber("General.NumThreads", 1)
         try:
             gmsh.open(str(path))
+            if mixed:
+                _keep_only(1)
             lines = {int(t) for t in gmsh.model.mesh.getElementTypes(1)}
             higher = {int(t) for d in (2, 3) for t in gmsh.model.mesh.getElementTypes(d)}
             if lines != {1} or higher:

@@ -91,6 +91,11 @@ def run_modes(
         window = min(reached, float(summary.get("time_end_s", reached)))
     sc = concrete_scenario(sc, comm)
     mesh = build_mesh(sc, comm)
+    if mesh.beams is not None:
+        raise ScenarioError(
+            "modes: a mixed model's modes (solids and beams through their joints) are not "
+            "built yet; run the scene and read its history, or model it as a frame or a solid"
+        )
     if mesh.fixed_vertices.size == 0 and mesh.pinned_vertices.size == 0:
         raise ScenarioError("modes: the structure has no support (it has rigid modes)")
     if degree != 1 and mesh.formulation.name != "solid":

@@ -10,6 +10,7 @@ import numpy as np
 from mpi4py import MPI
 
 from crane_fem.coupling import MacroRecord
+from crane_fem.geometry.tagged import TaggedMesh
 from crane_fem.pipeline import Simulation
 from crane_fem.scenario import FrameModel, GmshModel
 from crane_fem.stress import CellStress
@@ -25,23 +26,31 @@ class GroupStress:
 
     def __init__(self, sim: Simulation) -> None:
         md = sim.models
-        tagged = sim.mesh.tagged
         ropes = {r.line for r in sim.scenario.rope}  # a rope is no beam: no stress
-        self.groups = [g for g in tagged.cell_groups if g not in ropes]
+        # The parent meshes (a mixed model's solids, then its beams: their own mesh).
+        meshes = [sim.mesh.tagged] + ([sim.mesh.beams.tagged] if sim.mesh.beams else [])
+        self.groups = [g for t in meshes for g in t.cell_groups if g not in ropes]
         self.every = sim.scenario.output.stress_every * md.sample_steps
-        n = tagged.mesh.topology.index_map(tagged.mesh.topology.dim)
-        group_of = np.full(n.size_local + n.num_ghosts, -1, dtype=np.int64)
-        for k, name in enumerate(self.groups):
-            group_of[
-                tagged.cell_tags.indices[tagged.cell_tags.values == tagged.cell_groups[name]]
-            ] = k
+
+        def groups_of(tagged: TaggedMesh) -> np.ndarray:
+            n = tagged.mesh.topology.index_map(tagged.mesh.topology.dim)
+            out = np.full(n.size_local + n.num_ghosts, -1, dtype=np.int64)
+            for k, name in enumerate(self.groups):
+                if name in tagged.cell_groups:
+                    tag = tagged.cell_groups[name]
+                    out[tagged.cell_tags.indices[tagged.cell_tags.values == tag]] = k
+            return out
+
         self.sides: list[tuple[str, CellStress, np.ndarray, np.ndarray]] = []
         for side, sub in (("explicit", md.explicit), ("implicit", md.implicit)):
             if sub is None:
                 continue
             vm = sub.stress()
             own = sub.parent_cells[: vm.n_cells]
-            labels = group_of[own]
+            beams = sim.mesh.beams
+            labels = groups_of(
+                beams.tagged if beams is not None and sub is md.implicit else sim.mesh.tagged
+            )[own]
             sel = np.flatnonzero(labels >= 0).astype(np.int32)
             self.sides.append((side, vm, sel, labels[sel]))
         self.comm = sim.mesh.comm
@@ -51,8 +60,8 @@ class GroupStress:
         self.location = np.zeros((n_g, 3))
         self.last = np.full(n_g, math.nan)
         #: A frame's per group largest |N|, |V1|, |V2|, |T|, |M1|, |M2| (none for solids).
-        beams = any(hasattr(vm, "last_forces") for _, vm, _, _ in self.sides)
-        self.forces = np.zeros((n_g, 6 if beams else 0))
+        framed = any(hasattr(vm, "last_forces") for _, vm, _, _ in self.sides)
+        self.forces = np.zeros((n_g, 6 if framed else 0))
         self._columns = [f"{g}_von_mises_max" for g in self.groups]
 
     @property

@@ -34,6 +34,8 @@ class HistoryRows:
                 continue
             excl = sim.constraints.interface_vertices if side == "implicit" else np.zeros(0)
             blocks, _ = sub.owned_dofs_of(np.setdiff1d(probe, excl))
+            if side == "implicit" and sim.mesh.beams is not None:
+                blocks = blocks[:0]  # a mixed model's probe is on its solids' mesh
             self.probe_blocks.append((side, blocks))
         cols = ["t", *ENERGY_KEYS, *it.method.history_keys(), "total"]
         cols += ["kinetic_explicit", "internal_explicit", "kinetic_implicit", "internal_implicit"]

@@ -106,7 +106,9 @@ def create_measured_points(sim: Simulation, out: Path) -> MeasuredPoints | None:
     ids, xyz = owned_vertices(sim)
     check_points(points, xyz, sim.mesh.comm)
     md = sim.models
+    # A mixed model's points are its solids' (its beams are another mesh, numbered apart).
+    implicit = md.implicit if sim.mesh.beams is None else None
     motions = PointMotions(
-        points, md.explicit, md.implicit, xyz, ids, GroundAcceleration(sc), sim.mesh.comm
+        points, md.explicit, implicit, xyz, ids, GroundAcceleration(sc), sim.mesh.comm
     )
     return MeasuredPoints(sim, motions, out)

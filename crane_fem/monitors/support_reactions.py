@@ -119,7 +119,10 @@ def create_supports(sim: Simulation) -> SupportsMonitor | None:
             continue
         if sim.mesh.comm.allreduce(int(np.count_nonzero(sub.model.fixed)), op=MPI.SUM):
             rayleigh = sub.model.alpha, sub.model.beta
-            # A gmsh model's faces are its [[support]] groups; a crane's, its four ends.
-            faces = list(sim.mesh.support_faces) or None
+            # A gmsh model's faces are its [[support]] groups; a crane's, its four ends (a
+            # mixed model's beams: their point supports, on their own mesh).
+            beams = sim.mesh.beams
+            stage = beams if beams is not None and sub is md.implicit else sim.mesh
+            faces = list(stage.support_faces) or None
             return SupportsMonitor(sim, SupportReactions(sub, rayleigh, sc.loading.gravity, faces))
     return None

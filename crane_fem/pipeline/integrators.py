@@ -113,7 +113,9 @@ class _OperatorFactory:
         if cpl is not None and cpl.interface_blocks == "one":
             blocks = np.zeros_like(blocks)
         if cpl is not None and cpl.interface_blocks == "zones":
-            zones = zone_labels(models.explicit, cons.interface_vertices)
+            zones = cons.joint_zones
+            if zones is None:
+                zones = zone_labels(models.explicit, cons.interface_vertices)
             blocks = blocks * (int(zones.max()) + 1) + zones
         self.blocks = blocks
         self.truncation = (cpl.interface_truncation if cpl is not None else None) or 0.0

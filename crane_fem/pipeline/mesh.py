@@ -3,7 +3,7 @@ vertices and the density of every cell."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import dolfinx
 import numpy as np
@@ -29,6 +29,7 @@ from crane_fem.pipeline.frame import (
     frame_supports,
     rope_held_vertices,
 )
+from crane_fem.pipeline.mixed import scenario_views
 from crane_fem.pipeline.scale import check_mesh_scale
 from crane_fem.scenario import (
     BarModel,
@@ -119,6 +120,15 @@ class MeshStage:
     point_masses: PointMasses | None = None
     frame_contacts: FrameContacts | None = None
     held_rotations: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    #: A mixed gmsh model's beams (their own line mesh, a frame's stage; this stage holds
+    #: the solids), or None.
+    beams: MeshStage | None = None
+
+    def stage_of(self, tagged: TaggedMesh) -> MeshStage:
+        """The stage whose parent mesh is ``tagged``'s (this one, or its beams')."""
+        if self.beams is not None and tagged is self.beams.tagged:
+            return self.beams
+        return self
 
     def extent(self) -> float:
         """The largest side of the whole mesh's bounding box (m; collective: the same on
@@ -137,7 +147,7 @@ def create_tagged_mesh(comm: MPI.Comm, sc: Scenario) -> TaggedMesh | CraneMesh:
     if isinstance(mdl, CraneModel):
         return create_crane_mesh(comm, mdl.geometry(), mdl.mesh)
     if isinstance(mdl, GmshModel):
-        return create_gmsh_mesh(comm, mdl.mesh)
+        return create_gmsh_mesh(comm, mdl.mesh, [j.node for j in sc.joint])
     if isinstance(mdl, BoxBeamModel):
         return create_box_beam(comm, BoxBeam(mdl.length, mdl.width, mdl.height, mdl.split, mdl.h))
     if isinstance(mdl, BlockModel):
@@ -284,10 +294,10 @@ def support_groups(sc: Scenario) -> list[str]:
     return []
 
 
-def _frame_stage(sc: Scenario, comm: MPI.Comm, mdl: FrameModel) -> MeshStage:
+def _frame_stage(sc: Scenario, comm: MPI.Comm, mdl: FrameModel, mixed: bool = False) -> MeshStage:
     """A frame's line mesh, its cells' materials, sections and axes, its supports and point
-    masses (collective)."""
-    tagged = create_frame_mesh(comm, mdl.mesh)
+    masses (collective); ``mixed``: a mixed model's beams (its solids left out)."""
+    tagged = create_frame_mesh(comm, mdl.mesh, mixed)
     fields = frame_fields(sc, tagged)
     assert fields.section is not None
     check_mesh_scale(mdl.mesh, tagged.mesh, fields.rho, fields.section.A)
@@ -310,9 +320,20 @@ def _frame_stage(sc: Scenario, comm: MPI.Comm, mdl: FrameModel) -> MeshStage:
 
 
 def build_mesh(sc: Scenario, comm: MPI.Comm) -> MeshStage:
-    """Mesh the scenario's model, or read its mesh file (collective)."""
+    """Mesh the scenario's model, or read its mesh file (collective). A mixed gmsh model's
+    stage is its solids', its beams' stage attached."""
     if isinstance(sc.model, FrameModel):
         return _frame_stage(sc, comm, sc.model)
+    if isinstance(sc.model, GmshModel) and sc.model.mixed:
+        solids, beams = scenario_views(sc)
+        assert isinstance(beams.model, FrameModel)
+        solid = _solid_stage(solids, comm)  # first: it refuses a beam touching a solid
+        return replace(solid, beams=_frame_stage(beams, comm, beams.model, mixed=True))
+    return _solid_stage(sc, comm)
+
+
+def _solid_stage(sc: Scenario, comm: MPI.Comm) -> MeshStage:
+    """The stage of a solid (or bar) model (collective)."""
     made = create_tagged_mesh(comm, sc)
     crane = made if isinstance(made, CraneMesh) else None
     tagged = made.tagged if isinstance(made, CraneMesh) else made

@@ -257,19 +257,21 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
     if implicit_specs:
         spec = next((s for s in sc.subdomain if s.name == implicit_specs[0][0]), None)
         own = spec.rayleigh_coefficients if spec is not None else None
+        # A mixed model's beams are their own mesh (the implicit side); else the same one.
+        src = mesh.beams if mesh.beams is not None else mesh
         implicit = create_subdomain(
-            tagged,
+            src.tagged,
             implicit_specs[0][0],
             implicit_specs[0][1],
-            tagged.cells(implicit_specs[0][2]),
-            mesh.formulation,
-            mesh.fields,
+            src.tagged.cells(implicit_specs[0][2]),
+            src.formulation,
+            src.fields,
             own if own is not None else rayleigh,
-            fixed,
+            src.fixed_vertices,
             consistent_mass=sc.newmark.mass == "consistent",
-            pinned_vertices=mesh.pinned_vertices,
-            point_masses=mesh.point_masses,
-            held_rotations=mesh.held_rotations,
+            pinned_vertices=src.pinned_vertices,
+            point_masses=src.point_masses,
+            held_rotations=src.held_rotations,
         )
     # Δt from the explicit subdomain's own critical step.
     step_sub = explicit if explicit is not None else implicit

@@ -206,11 +206,30 @@ class GmshModel(Section):
 
     @property
     def groups(self) -> list[str]:
+        """Its cell groups: the volume groups, then a mixed model's line groups."""
+        return self.volume_groups + self.line_groups
+
+    @property
+    def volume_groups(self) -> list[str]:
         return list(self.names().volumes)
 
     @property
     def surface_groups(self) -> list[str]:
         return list(self.names().surfaces)
+
+    @property
+    def line_groups(self) -> list[str]:
+        """Named line groups: beams (a mixed model of solids and beams); none for solids."""
+        return list(self.names().lines)
+
+    @property
+    def point_groups(self) -> list[str]:
+        return list(self.names().points)
+
+    @property
+    def mixed(self) -> bool:
+        """Whether the file holds beams (line groups) beside its solids."""
+        return bool(self.names().lines)
 
 
 MODEL_KINDS = {

@@ -34,6 +34,7 @@ from crane_fem.scenario.sections import (
     GroupMaterial,
     Initial,
     Integrator,
+    Joint,
     Material,
     Monitor,
     Output,
@@ -75,6 +76,7 @@ class Scenario(Section):
     support: list[Support] = []
     mass: list[GroupMass] = []
     section: list[BeamSection] = []
+    joint: list[Joint] = []
     rope: list[Rope] = []
     time: Time
     integrator: Integrator = Integrator()
@@ -126,6 +128,17 @@ class Scenario(Section):
                 "material: [[material]] entries (one per set of groups) apply to model.kind "
                 f"'gmsh' and 'frame'; model.kind {mdl.kind!r} takes one [material] table"
             )
+        mixed = isinstance(mdl, GmshModel) and mdl.mixed
+        if self.joint and not mixed:
+            raise ValueError(
+                "joint: [[joint]] ties a beam to a solid: it applies to model.kind 'gmsh' with "
+                "line groups (beams) beside its volume groups"
+            )
+        if mixed:
+            assert isinstance(mdl, GmshModel)
+            if self.rope:
+                raise ValueError("rope: [[rope]] applies to model.kind 'frame'")
+            return self._mixed_groups(mdl)
         if not isinstance(mdl, FrameModel):
             for key in ("section", "rope"):
                 if getattr(self, key):
@@ -165,7 +178,7 @@ class Scenario(Section):
                     )
             return self
         assert isinstance(mdl, GmshModel)
-        volumes, surfaces = mdl.groups, mdl.surface_groups
+        volumes, surfaces = mdl.volume_groups, mdl.surface_groups
         where = f"(in {Path(mdl.mesh).name}: {', '.join(surfaces) or 'none'})"
         if isinstance(self.material, list):
             seen: dict[str, int] = {}
@@ -230,6 +243,135 @@ class Scenario(Section):
                 raise ValueError(
                     f"integrator.scheme: model.kind 'gmsh' without [[subdomain]] runs one "
                     f"explicit 'cd-lagrange' body, not {self.integrator.scheme!r}"
+                )
+        return self
+
+    def _mixed_groups(self, mdl: GmshModel) -> Scenario:
+        """A gmsh model of solids and beams: volume and line groups take materials, line
+        groups sections; supports are surface groups (clamped) or point groups; joints tie
+        a point group to a surface group; the solids run explicit and the beams implicit
+        (issue 33: CD-Lagrange zones with contact, Newmark or its reduced form on the
+        beams), from rest or a uniform velocity."""
+        volumes, surfaces = mdl.volume_groups, mdl.surface_groups
+        lines, points = mdl.line_groups, mdl.point_groups
+        fname = Path(mdl.mesh).name
+
+        def need(key: str, g: str, kind: str, names: list[str]) -> None:
+            if g not in names:
+                raise ValueError(
+                    f"{key}: {g!r} is not a named {kind} group (in {fname}: "
+                    f"{', '.join(names) or 'none'})"
+                )
+
+        seen: dict[str, int] = {}
+        for i, sec in enumerate(self.section):
+            for g in sec.groups:
+                need(f"section[{i}].groups", g, "line", lines)
+                if g in seen:
+                    raise ValueError(f"section[{i}].groups: {g!r} already has section[{seen[g]}]")
+                seen[g] = i
+        missing = [g for g in lines if g not in seen]
+        if missing:
+            raise ValueError(
+                f"section: line groups {missing} have no [[section]] entry (each member needs "
+                "its cross-section and orientation)"
+            )
+        if isinstance(self.material, list):
+            owner: dict[str, int] = {}
+            for i, m in enumerate(self.material):
+                for g in m.groups:
+                    need(f"material[{i}].groups", g, "volume or line", volumes + lines)
+                    if g in owner:
+                        raise ValueError(
+                            f"material[{i}].groups: {g!r} already has material[{owner[g]}]"
+                        )
+                    owner[g] = i
+                if m.rayleigh_coefficients != self.material[0].rayleigh_coefficients:
+                    raise ValueError(
+                        f"material[{i}]: its damping differs from material[0]'s; the damping "
+                        "C = αM + βK is one per scene"
+                    )
+            lacking = [g for g in volumes + lines if g not in owner]
+            if lacking:
+                raise ValueError(f"material: groups {lacking} have no [[material]] entry")
+        for i, sup in enumerate(self.support):
+            need(f"support[{i}].group", sup.group, "surface or point", surfaces + points)
+            if sup.group in surfaces and sup.dofs != "clamped":
+                raise ValueError(
+                    f"support[{i}].dofs: {sup.dofs!r} applies to a beam's point supports (a "
+                    "solid's face is clamped)"
+                )
+        for i, ms in enumerate(self.mass):
+            need(f"mass[{i}].group", ms.group, "volume", volumes)
+            if ms.inertia is not None:
+                raise ValueError(
+                    f"mass[{i}].inertia: rotary inertia applies to a frame's point masses"
+                )
+        labels = []
+        for i, c in enumerate(self.contact):
+            if c.type != "surface":
+                raise ValueError(
+                    f"contact[{i}].type: a mixed gmsh model's contacts are between its solids, "
+                    f"type 'surface', not {c.type!r}"
+                )
+            need(f"contact[{i}].points", c.points, "surface", surfaces)
+            need(f"contact[{i}].surface", c.surface, "surface", surfaces)
+            labels.append(c.label)
+        twice = sorted({n for n in labels if labels.count(n) > 1})
+        if twice:
+            raise ValueError(f"contact: two contacts are named {twice[0]!r}")
+        if not self.joint:
+            raise ValueError(
+                f"joint: {fname} holds beams (line groups {', '.join(lines)}) beside solids: "
+                'tie them by [[joint]] entries (face = "<surface group>", node = "<point '
+                'group>")'
+            )
+        faces: dict[str, int] = {}
+        nodes: dict[str, int] = {}
+        for i, j in enumerate(self.joint):
+            need(f"joint[{i}].face", j.face, "surface", surfaces)
+            need(f"joint[{i}].node", j.node, "point", points)
+            for key, name, used in (("face", j.face, faces), ("node", j.node, nodes)):
+                if name in used:
+                    raise ValueError(
+                        f"joint[{i}].{key}: {name!r} is already joint[{used[name]}]'s (one "
+                        "joint per face and per node)"
+                    )
+                used[name] = i
+        self._initial_velocity_only()
+        if self.initial.preload and any(self.loading.gravity):
+            raise ValueError(
+                "initial.preload: a mixed model of solids and beams starts from rest or from "
+                "initial.velocity (its static preload through the joints is not built): set "
+                "initial.preload = false, or loading.gravity = [0, 0, 0]"
+            )
+        if self.coupling is not None and self.coupling.method == "monolithic":
+            raise ValueError(
+                "coupling.method: a mixed model runs coupled, its solids explicit and its "
+                "beams implicit through their joints ('monolithic' is not built for it)"
+            )
+        if not self.subdomain:
+            raise ValueError(
+                "subdomain: a mixed model needs [[subdomain]] entries: its volume groups in "
+                "an explicit 'cd-lagrange' subdomain, its line groups in one 'newmark' "
+                "(or 'newmark-reduced') subdomain"
+            )
+        for i, sd in enumerate(self.subdomain):
+            solid = [g for g in sd.groups if g in volumes]
+            if solid and len(solid) < len(sd.groups):
+                raise ValueError(
+                    f"subdomain[{i}].groups: mixes volume groups {solid} with line groups (a "
+                    "subdomain is one element kind)"
+                )
+            if solid and sd.scheme != "cd-lagrange":
+                raise ValueError(
+                    f"subdomain[{i}].scheme: the solids run 'cd-lagrange' (their contacts), "
+                    f"not {sd.scheme!r}"
+                )
+            if not solid and sd.scheme == "cd-lagrange":
+                raise ValueError(
+                    f"subdomain[{i}].scheme: the beams run 'newmark' or 'newmark-reduced' "
+                    "(joined to the solids through their joints), not 'cd-lagrange'"
                 )
         return self
 

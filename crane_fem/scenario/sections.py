@@ -28,6 +28,7 @@ __all__ = [
     "GroupMaterial",
     "Initial",
     "Integrator",
+    "Joint",
     "Material",
     "Monitor",
     "Output",
@@ -166,6 +167,21 @@ class Support(Section):
 
     group: str
     dofs: Literal["clamped", "pinned"] = "clamped"
+
+
+class Joint(Section):
+    """A beam node driving a solid's face (a mixed gmsh model, THEORY.md §11): the point group
+    ``node`` (one vertex of the line mesh, on the face's centroid) tied to the surface group
+    ``face`` by the rigid section's six rows (the section's resultant and moment; the face
+    free to warp). ``name`` (default the face's group) names it in messages."""
+
+    face: str
+    node: str
+    name: str | None = None
+
+    @property
+    def label(self) -> str:
+        return self.name if self.name is not None else self.face
 
 
 class GroupMass(Section):
