@@ -54,8 +54,10 @@ class CraigBampton:
 
     Attributes:
         n_b: boundary coordinates (the interface rows, in their order; coordinate k is the
-            displacement of the DOF of row k).
-        coeff: the interface rows' coefficients (L_I x = coeff ⊙ x[:n_b]).
+            displacement of the DOF of row k; with rows of several terms, the DOFs they
+            touch, see ``C``).
+        coeff: the interface rows' coefficients (L_I x = coeff ⊙ x[:n_b]) when each row has
+            one term (else empty).
         n_modes: fixed-interface normal modes kept; frequencies: theirs (Hz).
         n_static: static load vectors kept (after orthogonalisation), the last coordinates.
         static_missed: per load vector, the fraction of its static response (energy norm, the
@@ -80,6 +82,15 @@ class CraigBampton:
     gram: FloatArray
     comm: MPI.Comm
     timings: dict[str, float] = field(default_factory=dict)
+    #: Interface rows of several terms: L_I x = C x[:n_b] (n_Γ × n_b), the boundary
+    #: coordinates the DOFs they touch; None when each row has one term (``coeff``).
+    C: FloatArray | None = None
+
+    def rows_of_boundary(self, x_b: FloatArray) -> FloatArray:
+        """L_I on boundary coordinates ``x_b`` (n_b × k): the interface rows (n_Γ × k)."""
+        if self.C is None:
+            return np.ascontiguousarray(self.coeff[:, None] * x_b)
+        return np.ascontiguousarray(self.C @ x_b)
 
     @property
     def n_r(self) -> int:
@@ -166,7 +177,8 @@ def create_craig_bampton(
     Args:
         model: the subdomain (K; fixed DOFs).
         mass: the mass matrix to reduce (consistent, or the lumped diagonal as a matrix).
-        interface: the interface rows L_I, one term each (a DOF and its coefficient).
+        interface: the interface rows L_I: one term each (a DOF and its coefficient), or
+            several (the boundary is then the DOFs they touch).
         loads: the subdomain's load vectors (owned DOFs): their interior static responses join
             the basis (with ``static_vectors``; what the modes alone miss of them is reported
             either way).
@@ -181,14 +193,32 @@ def create_craig_bampton(
     r0 = model.K.getOwnershipRange()[0]
     n_b = interface.p
     # The interface rows on this rank: row k -> owned DOF.
-    if np.any(np.bincount(interface.rows, minlength=n_b) > 1):
-        raise CraneFemError("Craig–Bampton: an interface row with several terms")
-    b_dofs = np.full(n_b, -1, dtype=np.int64)
-    b_dofs[interface.rows] = interface.dofs
-    coeff_local = np.zeros(n_b)
-    coeff_local[interface.rows] = interface.coeffs
-    coeff = np.empty(n_b)
-    comm.Allreduce(coeff_local, coeff)
+    n_terms = np.zeros(n_b, dtype=np.int64)
+    comm.Allreduce(np.bincount(interface.rows, minlength=n_b).astype(np.int64), n_terms)
+    coeff: FloatArray | None = None
+    C: FloatArray | None = None
+    if np.all(n_terms == 1):  # one term a row: boundary coordinate k is row k's DOF
+        b_dofs = np.full(n_b, -1, dtype=np.int64)
+        b_dofs[interface.rows] = interface.dofs
+        coeff_local = np.zeros(n_b)
+        coeff_local[interface.rows] = interface.coeffs
+        coeff = np.empty(n_b)
+        comm.Allreduce(coeff_local, coeff)
+    else:
+        # Rows with several terms (a rigid section's on a beam node): the boundary is the
+        # DOFs the rows touch (global order), and L_I x = C x[:n_b].
+        touched = np.unique(np.concatenate(comm.allgather(r0 + np.unique(interface.dofs))))
+        mine = (touched >= r0) & (touched < r0 + n_own)
+        b_dofs = np.where(mine, touched - r0, -1).astype(np.int64)
+        C_local = np.zeros((n_b, touched.size))
+        np.add.at(
+            C_local,
+            (interface.rows, np.searchsorted(touched, r0 + interface.dofs)),
+            interface.coeffs,
+        )
+        C = np.empty_like(C_local)
+        comm.Allreduce(C_local, C)
+        n_b = int(touched.size)
     interior, n_int = interior_dofs(model, interface)
     check_modes(modes, n_int)
     # (petsc4py's stubs want a Sequence and a PETSc.Comm: an ndarray and an mpi4py comm work.)
@@ -280,7 +310,7 @@ def create_craig_bampton(
             obj.destroy()
     return CraigBampton(
         n_b,
-        coeff,
+        coeff if coeff is not None else np.zeros(0),
         n_modes,
         np.sqrt(np.maximum(omega2, 0.0)) / (2.0 * np.pi),
         len(X),
@@ -291,6 +321,7 @@ def create_craig_bampton(
         gram,
         comm,
         timings,
+        C,
     )
 
 

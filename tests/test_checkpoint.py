@@ -313,6 +313,25 @@ def test_restart_of_the_crane(shared_tmp) -> None:
     assert res.summary["restart"]["t"] == pytest.approx(0.0104, abs=1e-4)
 
 
+def test_restart_of_a_mixed_model(shared_tmp) -> None:
+    """A mixed model (tests/test_mixed_model.py: beams Newmark, a solid CD-Lagrange, tied by
+    two joints) under gravity from rest, with a checkpoint every 200 sampling instants,
+    continued from its latest: the uninterrupted run, bit for bit serially (XDMF frames of
+    both meshes included)."""
+    from test_mixed_model import scenario as mixed_scenario
+    from test_mixed_model import write_bar
+
+    mesh = write_bar(shared_tmp / "bar.msh")
+    path = shared_tmp / "mixed.toml"
+    if COMM.rank == 0:
+        path.write_text(mixed_scenario(mesh), encoding="utf-8")
+    COMM.barrier()
+    sets = ["output.checkpoint_every=200", "output.xdmf=true", "output.xdmf_every=100"]
+    sc = load_scenario(path, sets)
+    _, res = _check_restart(sc, None, sc, shared_tmp, frames=True, from_ref=True)
+    assert res.summary["restart"]["step"] > 0
+
+
 @pytest.mark.slow
 @pytest.mark.serial  # bit for bit serially; two-rank restarts: the crane's and the bar's tests
 def test_restart_of_wheels_sliding_on_their_rail_tops(shared_tmp) -> None:

@@ -103,7 +103,14 @@ def test_reduced_newmark_in_its_modes_equals_the_dense_form() -> None:
     C = alpha * M + beta_r * K
     coeff = rng.choice([-1.0, 1.0], n_b)
     basis = SimpleNamespace(
-        M=M, K=K, n_b=n_b, coeff=coeff, n_static=1, n_r=n_d + 1, expand=lambda x: x
+        M=M,
+        K=K,
+        n_b=n_b,
+        coeff=coeff,
+        n_static=1,
+        n_r=n_d + 1,
+        expand=lambda x: x,
+        rows_of_boundary=lambda x: coeff[:, None] * x,
     )
     model = SimpleNamespace(comm=MPI.COMM_SELF, alpha=alpha, beta=beta_r)
     base = rng.standard_normal(n_d + 1)

@@ -8,7 +8,8 @@ eigendecomposition at set-up), and its massless static coordinates c = R ζ (K_c
 M_r, K_r and the Rayleigh C_r are diagonal in z = (η, ζ): every Newmark step is an update
 entry by entry, and M̃_r⁻¹ a division. The static coordinates are K-orthogonal to the others
 (crane_fem.reduction), so K_dc is round-off and dropped. What is not diagonal are the interface
-rows, L_I x = coeff ⊙ u_b = P η with P = coeff ⊙ Ψ_b (n_Γ × n_d): the interface values and
+rows, L_I x = coeff ⊙ u_b = P η with P = coeff ⊙ Ψ_b (n_Γ × n_d; C Ψ_b for rows of several
+terms, a rigid section's on a beam node): the interface values and
 the link forces cost one product with P each, and W_I = P Ã⁻¹ Pᵀ.
 
 The state is replicated on every rank, so no step communicates. The coupling methods see the
@@ -74,7 +75,7 @@ def reduced_modes(basis: CraigBampton) -> ReducedModes:
     M, K = basis.M, basis.K
     lam, Psi = scipy.linalg.eigh(K[:k, :k], M[:k, :k])
     kappa, R = np.linalg.eigh(K[k:, k:]) if basis.n_static else (np.zeros(0), np.zeros((0, 0)))
-    P = np.ascontiguousarray(basis.coeff[:, None] * Psi[: basis.n_b, :])
+    P = basis.rows_of_boundary(Psi[: basis.n_b, :])
     mass = np.concatenate([np.ones(k), np.zeros(basis.n_static)])
     PT = np.ascontiguousarray(P.T)
     return ReducedModes(k, Psi, lam, R, kappa, P, PT, mass, np.concatenate([lam, kappa]))
