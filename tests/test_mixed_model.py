@@ -177,6 +177,24 @@ def test_two_ranks_equal_serial(shared_tmp: Path, tmp_path: Path) -> None:
     assert_same_histories(h1, h2, 1e-8)
 
 
+def test_preload_holds_the_cantilever_still(shared_tmp: Path) -> None:
+    """The cantilever from its static preload through the joints (crane_fem.preload.mixed):
+    at rest to round-off (kinetic energy ≤ 1e-12 of the strain energy; measured 3e-18 J
+    against 138 J), the support's force the bar's weight and its moment the weight × 3.5 m
+    (the joints pass the solid's share of both) within 1e-8 of them, on one rank or two
+    (measured 1.1e-9: the reaction is read from K u − f on a sag of 1 mm, at the round-off of
+    K's 1e11 N/m entries times it, ε ‖K‖ |u| ≈ 1e-5 N)."""
+    mesh = write_bar(shared_tmp / "bar.msh")
+    path = write(shared_tmp / "preloaded.toml", scenario(mesh, initial=""))
+    out = shared_tmp / "preloaded"
+    assert main(["run", str(path), "-o", str(out), "--no-progress"]) == 0
+    h = read_history(out / "history.csv")
+    assert np.max(h["kinetic"]) <= 1e-12 * h["internal"][0]
+    weight = RHO * SIDE * SIDE * 7.0 * 9.81
+    assert np.max(np.abs(h["support1_fz"] - weight)) <= 1e-8 * weight
+    assert np.max(np.abs(h["support1_my"] + 3.5 * weight)) <= 1e-8 * 3.5 * weight
+
+
 @pytest.mark.parametrize(
     ("variant", "over", "message"),
     [
@@ -208,9 +226,8 @@ def test_two_ranks_equal_serial(shared_tmp: Path, tmp_path: Path) -> None:
             },
             "subdomain[0].groups: mixes volume groups ['solid'] with line groups",
         ),
-        ("", {"initial": ""}, "initial.preload: a mixed model of solids and beams starts"),
     ],
-    ids=["touching", "off", "two_nodes", "split", "no_joint", "face_twice", "one_kind", "preload"],
+    ids=["touching", "off", "two_nodes", "split", "no_joint", "face_twice", "one_kind"],
 )
 def test_bad_input_refused(
     shared_tmp: Path, capsys: pytest.CaptureFixture[str], variant: str, over: dict, message: str
@@ -258,4 +275,5 @@ def test_demo_is_checked(capsys: pytest.CaptureFixture[str]) -> None:
     model the user guide shows reads and sets up (its run: about a minute)."""
     demo = Path(__file__).parent.parent / "demos" / "own_mixed" / "runway_girder.toml"
     assert main(["check", str(demo)]) == 0
-    assert "newmark on girder" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "newmark on girder" in out or COMM.rank > 0  # (rank 0 prints)

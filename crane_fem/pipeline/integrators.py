@@ -90,11 +90,17 @@ def _static_forces(models: ModelStage, cons: ConstraintStage) -> FloatArray | No
 
 def _interface_force0(comm: MPI.Comm, E: ExplicitZone) -> FloatArray:
     """Link forces Λ_0 holding the preloaded subdomains in equilibrium: the explicit side's
-    residual f − K u on its interface rows, Λ_0 = −r_E / c (collective)."""
+    residual f − K u on its interface rows, Λ_0 = −r_E / c (collective). Rows that share
+    DOFs (a mixed model's joints): L_Eᵀ Λ_0 = −r_E in least squares, (L_E L_Eᵀ) Λ_0 =
+    −L_E r_E (exact at an equilibrium)."""
     n_g = E.n_gamma
     r = E.residual(0.0)
     st = E.stack
     sel = st.rows < n_g
+    if E.zone.gg_ptr.size:
+        L = E.interface
+        gram = L.delassus(np.ones(r.size))  # L_E L_Eᵀ
+        return np.asarray(np.linalg.solve(gram, -L.apply(r)), dtype=np.float64)
     lam = np.zeros(n_g)
     lam[st.rows[sel]] = -r[st.dofs[sel]] / st.coeffs[sel]
     out: FloatArray = comm.allreduce(lam, op=MPI.SUM)
@@ -219,7 +225,9 @@ def build_integrators(
     reduction = None
     if models.implicit is not None:
         sub = models.implicit
-        u0, v0 = initial_state(sc, sub, models.preload)
+        # (A mixed model's beams are preloaded on their own mesh.)
+        pre = models.beam_preload if models.joints is not None else models.preload
+        u0, v0 = initial_state(sc, sub, pre)
         load = body_load(sc, mesh, sub)
         nm = sc.newmark
         spec = next(s for s in sc.subdomain if s.implicit) if sc.subdomain else None

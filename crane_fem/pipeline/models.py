@@ -13,8 +13,10 @@ from mpi4py import MPI
 from crane_fem.contact.ropes import RopeSpec
 from crane_fem.errors import ScenarioError
 from crane_fem.pipeline.frame import frame_bonded_points
+from crane_fem.pipeline.joints import JointRows, build_joints
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.preload import BondedPoints, Preload, bonded_preload, static_preload
+from crane_fem.preload.mixed import mixed_preload
 from crane_fem.scenario import BlockModel, FrameModel, GmshModel, Scenario
 from crane_fem.stability import critical_time_step, max_frequency
 from crane_fem.subdomains import Subdomain, create_subdomain
@@ -55,6 +57,10 @@ class ModelStage:
     sample_steps: int = 1
     #: The explicit side's largest frequency (rad/s): its undamped critical step is 2/ω.
     omega_max: float = 0.0
+    #: A mixed model's joints (the GC interface's rows) and its beams' preloaded state (the
+    #: solids' is ``preload``); None otherwise.
+    joints: JointRows | None = None
+    beam_preload: Preload | None = None
 
     @property
     def coupled(self) -> bool:
@@ -232,7 +238,8 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             ["trolley_frame"] + [f"wheel_{k}" for k in range(1, 5)],
         )
     users = isinstance(mdl, GmshModel | FrameModel)
-    if users and sc.initial.preload and np.any(np.asarray(sc.loading.gravity) != 0.0):
+    mixed = mesh.beams is not None  # its preload: through its joints, once they are built
+    if users and not mixed and sc.initial.preload and np.any(np.asarray(sc.loading.gravity) != 0.0):
         preload = _gmsh_preload(sc, mesh)
     if users and not np.any(np.asarray(sc.loading.gravity) != 0.0):
         _warn_unpressed(mesh)
@@ -273,6 +280,22 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             point_masses=src.point_masses,
             held_rotations=src.held_rotations,
         )
+    joints = beam_preload = None
+    if mesh.beams is not None and explicit is not None and implicit is not None:
+        # A mixed model: its joints' rows, and its preload through them (the solids and the
+        # beams on their own meshes: after the subdomains).
+        joints = build_joints(sc, mesh, explicit, implicit)
+        if sc.initial.preload and np.any(np.asarray(sc.loading.gravity) != 0.0):
+            preload, beam_preload = mixed_preload(
+                explicit,
+                implicit,
+                joints.l_explicit,
+                joints.l_implicit,
+                bonded_points(mesh),
+                len(mesh.surface_contacts),
+                np.asarray(sc.loading.gravity, dtype=np.float64),
+                TOUCHING * mesh.extent(),
+            )
     # Δt from the explicit subdomain's own critical step.
     step_sub = explicit if explicit is not None else implicit
     assert step_sub is not None
@@ -322,4 +345,6 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
         end,
         sample,
         omega_max,
+        joints,
+        beam_preload,
     )

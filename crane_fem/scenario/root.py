@@ -339,12 +339,6 @@ class Scenario(Section):
                     )
                 used[name] = i
         self._initial_velocity_only()
-        if self.initial.preload and any(self.loading.gravity):
-            raise ValueError(
-                "initial.preload: a mixed model of solids and beams starts from rest or from "
-                "initial.velocity (its static preload through the joints is not built): set "
-                "initial.preload = false, or loading.gravity = [0, 0, 0]"
-            )
         if self.coupling is not None and self.coupling.method == "monolithic":
             raise ValueError(
                 "coupling.method: a mixed model runs coupled, its solids explicit and its "
