@@ -27,7 +27,8 @@ SIDE = 0.1
 def write_bar(path: Path, variant: str = "") -> Path:
     """The mixed bar (rank 0 writes, every rank waits). ``variant``: "touching" (a strut
     from a corner of the solid), "split" (the solid in two volumes; face_mid between them),
-    "off" (the first beam's end 1 cm off its face's centroid), "two_nodes" (the first
+    "off" (the first beam's end 1 cm off its face's centroid), "bent" (face_in takes the
+    solid's top face too), "two_nodes" (the first
     joint's point group holds the beam's far end too)."""
     if COMM.rank == 0:
         import gmsh
@@ -64,7 +65,13 @@ def write_bar(path: Path, variant: str = "") -> Path:
             return sorted(set(out))
 
         gmsh.model.addPhysicalGroup(3, vols, name="solid")
-        gmsh.model.addPhysicalGroup(2, faces_at(3.0), name="face_in")
+        bent = []
+        if variant == "bent":  # face_in with the solid's top face: not planar
+            for d, t in gmsh.model.getBoundary([(3, vols[0])], oriented=False):
+                bb = gmsh.model.getBoundingBox(d, t)
+                if abs(bb[2] - SIDE) < 1e-6 and abs(bb[5] - SIDE) < 1e-6:
+                    bent.append(abs(t))
+        gmsh.model.addPhysicalGroup(2, faces_at(3.0) + bent, name="face_in")
         gmsh.model.addPhysicalGroup(2, faces_at(4.0), name="face_out")
         if variant == "split":
             gmsh.model.addPhysicalGroup(2, faces_at(3.5), name="face_mid")
@@ -201,6 +208,7 @@ def test_preload_holds_the_cantilever_still(shared_tmp: Path) -> None:
         ("touching", {}, "model.mesh: line group 'beam_out' of bar_touching.msh touches a solid"),
         ("off", {}, "joint 'face_in': the beam node lies 0.01 m from the face's centroid"),
         ("two_nodes", {}, "joint[0].node: point group 'joint_in' has 2 vertices"),
+        ("bent", {}, "joint face 'face_in' is not planar"),
         (
             "split",
             {
@@ -227,7 +235,7 @@ def test_preload_holds_the_cantilever_still(shared_tmp: Path) -> None:
             "subdomain[0].groups: mixes volume groups ['solid'] with line groups",
         ),
     ],
-    ids=["touching", "off", "two_nodes", "split", "no_joint", "face_twice", "one_kind"],
+    ids=["touching", "off", "two_nodes", "bent", "split", "no_joint", "face_twice", "one_kind"],
 )
 def test_bad_input_refused(
     shared_tmp: Path, capsys: pytest.CaptureFixture[str], variant: str, over: dict, message: str
