@@ -382,12 +382,15 @@ def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> Cons
     vertices = np.zeros(0, dtype=np.int64)
     le = li = ContactSet.empty(comm)
     zones = None
+    on_solids = vertices
     if models.joints is not None:
         j = models.joints
         vertices, le, li, zones = j.nodes, j.l_explicit, j.l_implicit, j.zones
+        on_solids = j.face_vertices  # the explicit side's interface: the joints' faces
     elif models.coupled:
         assert E_sub is not None and I_sub is not None
         vertices, le, li = build_interface(E_sub, I_sub)
+        on_solids = vertices
         if vertices.size == 0:
             raise ScenarioError("subdomain: the explicit and implicit subdomains do not touch")
     contacts = ContactSet.empty(comm)
@@ -413,7 +416,7 @@ def build_constraints(sc: Scenario, mesh: MeshStage, models: ModelStage) -> Cons
                 mesh.frame_contacts, E_sub, models.preload, vertices, tol
             )
         elif isinstance(sc.model, GmshModel):
-            sliding = _gmsh_contacts(E_sub, mesh, models.preload, vertices)
+            sliding = _gmsh_contacts(E_sub, mesh, models.preload, on_solids)
             contacts = sliding.rows()
         elif isinstance(sc.model, BlockModel):
             contacts = _plane_contacts(sc, mesh, E_sub)

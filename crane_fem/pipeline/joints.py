@@ -28,12 +28,15 @@ IntArray = npt.NDArray[np.int64]
 @dataclass(frozen=True)
 class JointRows:
     """The joints' interface: the beam nodes' global ids (joint order), L_E and L_I (rows
-    6j + 0…5) and the explicit zone (connected solid) of each row."""
+    6j + 0…5), the explicit zone (connected solid) of each row and the faces' vertices."""
 
     nodes: IntArray
     l_explicit: ContactSet
     l_implicit: ContactSet
     zones: IntArray
+    #: The global solid vertices of every joint's face (sorted): the explicit side's
+    #: interface (a frictional contact may not touch it).
+    face_vertices: IntArray
 
 
 def _joint_facets(sub: Subdomain, tagged: TaggedMesh, name: str, key: str) -> npt.NDArray[np.int32]:
@@ -86,7 +89,7 @@ def build_joints(sc: Scenario, mesh: MeshStage, E_sub: Subdomain, I_sub: Subdoma
     """
     assert mesh.beams is not None
     beams = mesh.beams.tagged
-    faces, nodes, zones = [], [], []
+    faces, nodes, zones, on_faces = [], [], [], []
     for i, j in enumerate(sc.joint):
         key = f"joint[{i}]"
         node = beams.global_vertices(beams.facet_vertices(j.node))
@@ -99,6 +102,7 @@ def build_joints(sc: Scenario, mesh: MeshStage, E_sub: Subdomain, I_sub: Subdoma
         faces.append(face_rows(E_sub.V, facets, j.label))
         nodes.append(int(node[0]))
         ids = mesh.tagged.global_vertices(mesh.tagged.facet_vertices(j.face))
+        on_faces.append(ids)
         labels = np.unique(zone_labels(E_sub, ids))
         if labels.size != 1:
             raise ScenarioError(
@@ -109,4 +113,10 @@ def build_joints(sc: Scenario, mesh: MeshStage, E_sub: Subdomain, I_sub: Subdoma
     node_ids = np.asarray(nodes, dtype=np.int64)
     node_x = np.array([beams.vertex_coordinates(np.array([n]))[0] for n in node_ids])
     le, li = joint_interface(E_sub, I_sub, faces, node_ids, node_x, [j.label for j in sc.joint])
-    return JointRows(node_ids, le, li, np.repeat(np.asarray(zones, dtype=np.int64), 6))
+    return JointRows(
+        node_ids,
+        le,
+        li,
+        np.repeat(np.asarray(zones, dtype=np.int64), 6),
+        np.unique(np.concatenate(on_faces)).astype(np.int64),
+    )

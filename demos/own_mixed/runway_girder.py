@@ -73,7 +73,7 @@ gmsh.model.addPhysicalGroup(0, [ends[2]], name="joint_right")
 gmsh.model.mesh.setSize(
     gmsh.model.getBoundary([(3, segment), (3, load_block)], recursive=True), h_solid
 )
-gmsh.model.mesh.setSize([(0, p) for p in (ends[0], ends[3])], h_beam)
+gmsh.model.mesh.setSize([(0, p) for p in ends], h_beam)  # the beams: 26 elements each
 gmsh.model.mesh.generate(3)
 gmsh.write(str(out))
 n_tets = len(gmsh.model.mesh.getElementsByType(4)[0])
