@@ -29,7 +29,8 @@ def write_bar(path: Path, variant: str = "") -> Path:
     from a corner of the solid), "split" (the solid in two volumes; face_mid between them),
     "off" (the first beam's end 1 cm off its face's centroid), "bent" (face_in takes the
     solid's top face too), "two_nodes" (the first
-    joint's point group holds the beam's far end too)."""
+    joint's point group holds the beam's far end too), "block" (a block resting on the
+    solid's whole top face, whose edges are the joints' faces')."""
     if COMM.rank == 0:
         import gmsh
 
@@ -53,6 +54,7 @@ def write_bar(path: Path, variant: str = "") -> Path:
         if variant == "touching":
             extra = [occ.addLine(occ.addPoint(4, SIDE, SIDE), occ.addPoint(4, 1.0, SIDE))]
         p_extra = p0 if variant == "two_nodes" else None
+        cube = occ.addBox(3.45, 0.025, SIDE, 0.1, 0.05, 0.05) if variant == "block" else None
         occ.synchronize()
 
         def faces_at(x: float) -> list[int]:
@@ -73,6 +75,19 @@ def write_bar(path: Path, variant: str = "") -> Path:
                     bent.append(abs(t))
         gmsh.model.addPhysicalGroup(2, faces_at(3.0) + bent, name="face_in")
         gmsh.model.addPhysicalGroup(2, faces_at(4.0), name="face_out")
+        if cube is not None:  # a block on the solid's whole top face (its edges: the joints')
+
+            def z_face(vol: int, z: float) -> list[int]:
+                return [
+                    abs(t)
+                    for d, t in gmsh.model.getBoundary([(3, vol)], oriented=False)
+                    if abs(gmsh.model.getBoundingBox(d, t)[2] - z) < 1e-6
+                    and abs(gmsh.model.getBoundingBox(d, t)[5] - z) < 1e-6
+                ]
+
+            gmsh.model.addPhysicalGroup(3, [cube], name="block")
+            gmsh.model.addPhysicalGroup(2, z_face(vols[0], SIDE), name="top")
+            gmsh.model.addPhysicalGroup(2, z_face(cube, SIDE), name="block_bottom")
         if variant == "split":
             gmsh.model.addPhysicalGroup(2, faces_at(3.5), name="face_mid")
         gmsh.model.addPhysicalGroup(1, [l1], name="beam_in")
@@ -234,8 +249,29 @@ def test_preload_holds_the_cantilever_still(shared_tmp: Path) -> None:
             },
             "subdomain[0].groups: mixes volume groups ['solid'] with line groups",
         ),
+        (
+            "block",
+            {
+                "subdomains": '[[subdomain]]\nname = "solids"\ngroups = ["solid", "block"]\n'
+                'scheme = "cd-lagrange"\n[[subdomain]]\nname = "beams"\n'
+                'groups = ["beam_in", "beam_out"]\nscheme = "newmark"\n'
+                '[[contact]]\ntype = "surface"\npoints = "block_bottom"\nsurface = "top"\n'
+                "friction = 0.3\n"
+            },
+            "contact 'block_bottom': a frictional contact may not touch the interface",
+        ),
     ],
-    ids=["touching", "off", "two_nodes", "bent", "split", "no_joint", "face_twice", "one_kind"],
+    ids=[
+        "touching",
+        "off",
+        "two_nodes",
+        "bent",
+        "split",
+        "no_joint",
+        "face_twice",
+        "one_kind",
+        "friction_on_joint",
+    ],
 )
 def test_bad_input_refused(
     shared_tmp: Path, capsys: pytest.CaptureFixture[str], variant: str, over: dict, message: str
