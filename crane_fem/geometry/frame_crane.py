@@ -33,6 +33,7 @@ import hashlib
 import itertools
 import json
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -52,7 +53,7 @@ __all__ = [
 
 
 #: Changes with the drawing below, so that a mesh cached by an older one is not reused.
-LAYOUT_VERSION = 3
+LAYOUT_VERSION = 4
 
 
 @dataclass(frozen=True)
@@ -66,6 +67,9 @@ class FrameCraneLayout:
     wheels: list[tuple[float, float]]
     girder: dict[str, Any]
     trolley_density_factor: float
+    #: ``wheel_zones = "solid"``: the function drawing the solid zones in the sketch's gmsh
+    #: model (FrameSketch.write), else None.
+    solids: Callable[[], None] | None = None
 
 
 def _girder_with_rail(m: Any) -> tuple[dict[str, Any], float]:
@@ -110,9 +114,21 @@ def frame_crane_layout(m: Any) -> FrameCraneLayout:
     wheel_ys = (m.trolley_position - 0.5 * m.wheel_base, m.trolley_position + 0.5 * m.wheel_base)
     wheels = [(x, y) for x in xs for y in wheel_ys]
     reach = 0.5 * m.wheel_length + m.zone_margin
+    solid = m.wheel_zones == "solid"
+    # The solid zones: one segment of each girder (and its rail) under both its wheels, its
+    # end faces a section depth past the wheels (a joint disturbs the stresses over about
+    # that, THEORY.md §11).
+    depth = hg + hr
+    seg = (wheel_ys[0] - 0.5 * m.wheel_length - depth, wheel_ys[1] + 0.5 * m.wheel_length + depth)
     for k, x in enumerate(xs, start=1):
         for y in ys:  # the links: girder end down to the end carriage
             s.member("links", (x, y, axis), (x, y, ze), size=m.size)
+        if solid:
+            s.member(f"girder_{k}", (x, ys[0], axis), (x, seg[0], axis), size=m.size)
+            s.member(f"girder_{k}", (x, seg[1], axis), (x, ys[1], axis), size=m.size)
+            s.points(f"joint_{k}_a", [(x, seg[0], axis)])
+            s.points(f"joint_{k}_b", [(x, seg[1], axis)])
+            continue
         cuts = [ys[0]]
         for y in wheel_ys:
             cuts += [y - reach, y + reach]
@@ -156,6 +172,10 @@ def frame_crane_layout(m: Any) -> FrameCraneLayout:
     )
     s.points("trolley_centre", [centre])
     for k, (x, y) in enumerate(wheels, start=1):
+        if solid:  # the stub from the wheel block's top face (a joint) up to the grillage
+            s.member(f"stub_{k}", (x, y, rail_top + m.wheel_height), (x, y, level), elements=1)
+            s.points(f"wheel_node_{k}", [(x, y, rail_top + m.wheel_height)])
+            continue
         s.member(f"wheel_{k}", (x, y, rail_top), (x, y, level), elements=1)
         s.points(f"wheel_point_{k}", [(x, y, rail_top)])
     if m.hoist == "rope":
@@ -166,7 +186,95 @@ def frame_crane_layout(m: Any) -> FrameCraneLayout:
     width = m.frame_length / 3.0
     lengths = 2.0 * m.frame_length + 3.0 * (2.0 * xw)
     grillage = width * m.frame_thickness * lengths
-    return FrameCraneLayout(s, axis, rail_top, level, wheels, girder, plate / grillage)
+    solids = _solid_zones(m, xs, wheels, seg) if solid else None
+    return FrameCraneLayout(s, axis, rail_top, level, wheels, girder, plate / grillage, solids)
+
+
+def _solid_zones(
+    m: Any, xs: tuple[float, float], wheels: list[tuple[float, float]], seg: tuple[float, float]
+) -> Callable[[], None]:
+    """The solid zones' drawing for FrameSketch.write: per girder k its segment [seg] with
+    its rail (volume ``zone_k``; the rail in three conforming parts along y, the middle one's
+    top, ``rail_top_k``, the wheels' contact surface, off the end faces), its end faces
+    ``zone_k_a``/``_b`` (girder and rail: the joints' faces); each wheel a block on the rail
+    (``wheel_k``; faces ``wheel_bottom_k``, ``wheel_top_k``). Elements of ``solid_size`` in
+    the rails and wheels, ``fine`` in the girders' webs."""
+    hc, hg, hr = m.end_carriage_height, m.girder_height, m.rail_height
+    rail_top = hc + hg + hr
+    y_lo = min(y for _, y in wheels) - 0.5 * m.wheel_length - m.zone_margin
+    y_hi = max(y for _, y in wheels) + 0.5 * m.wheel_length + m.zone_margin
+
+    def draw() -> None:
+        import gmsh
+
+        occ = gmsh.model.occ
+        zones: list[list[int]] = []
+        for x in xs:
+            girder = occ.addBox(
+                x - 0.5 * m.girder_width, seg[0], hc, m.girder_width, seg[1] - seg[0], hg
+            )
+            rails = [
+                occ.addBox(x - 0.5 * m.rail_width, a, hc + hg, m.rail_width, b - a, hr)
+                for a, b in itertools.pairwise((seg[0], y_lo, y_hi, seg[1]))
+            ]
+            pieces, _ = occ.fragment([(3, girder)], [(3, r) for r in rails])
+            zones.append([t for _, t in pieces])
+        blocks = [
+            occ.addBox(
+                x - 0.5 * m.wheel_width,
+                y - 0.5 * m.wheel_length,
+                rail_top,
+                m.wheel_width,
+                m.wheel_length,
+                m.wheel_height,
+            )
+            for x, y in wheels
+        ]
+        occ.synchronize()
+
+        def faces(
+            vols: list[int], axis: int, value: float, within: tuple[float, float] | None = None
+        ) -> list[int]:
+            out = set()
+            for v in vols:
+                for d, t in gmsh.model.getBoundary([(3, v)], oriented=False):
+                    b = gmsh.model.getBoundingBox(d, abs(t))
+                    if abs(b[axis] - value) > 1e-6 or abs(b[axis + 3] - value) > 1e-6:
+                        continue
+                    if within is not None and not (
+                        within[0] - 1e-6 <= b[1] and b[4] <= within[1] + 1e-6
+                    ):
+                        continue
+                    out.add(abs(t))
+            return sorted(out)
+
+        for k, vols in enumerate(zones, start=1):
+            gmsh.model.addPhysicalGroup(3, vols, name=f"zone_{k}")
+            gmsh.model.addPhysicalGroup(2, faces(vols, 1, seg[0]), name=f"zone_{k}_a")
+            gmsh.model.addPhysicalGroup(2, faces(vols, 1, seg[1]), name=f"zone_{k}_b")
+            gmsh.model.addPhysicalGroup(
+                2, faces(vols, 2, rail_top, (y_lo, y_hi)), name=f"rail_top_{k}"
+            )
+        for k, b in enumerate(blocks, start=1):
+            gmsh.model.addPhysicalGroup(3, [b], name=f"wheel_{k}")
+            gmsh.model.addPhysicalGroup(2, faces([b], 2, rail_top), name=f"wheel_bottom_{k}")
+            gmsh.model.addPhysicalGroup(
+                2, faces([b], 2, rail_top + m.wheel_height), name=f"wheel_top_{k}"
+            )
+        # Sizes: solid_size in the rails and the wheels, fine below (the girders' bodies);
+        # the members keep their own (transfinite).
+        top = hc + hg - 1e-9
+
+        def size(dim: int, tag: int, x: float, y: float, z: float, lc: float) -> float:
+            if seg[0] - 1e-9 <= y <= seg[1] + 1e-9 and any(
+                abs(x - xg) <= m.girder_width for xg in xs
+            ):
+                return min(lc, m.solid_size if z >= top else m.fine)
+            return lc
+
+        gmsh.model.mesh.setSizeCallback(size)
+
+    return draw
 
 
 def _section(
@@ -182,6 +290,8 @@ def expand_frame_crane(data: dict[str, Any], m: Any, mesh_path: Path) -> dict[st
     "frame_crane"``, model ``m``) as a frame's: its mesh ``mesh_path`` (written already),
     sections, materials, supports, masses, contacts (its ``[wheel]`` friction), rope."""
     layout = frame_crane_layout(m)
+    if m.wheel_zones == "solid":
+        return _expand_solid_zones(data, m, mesh_path, layout)
     out = copy.deepcopy(data)
     out["model"] = {"kind": "frame", "mesh": str(mesh_path)}
     wheel = out.pop("wheel", {}) or {}
@@ -274,6 +384,94 @@ def expand_frame_crane(data: dict[str, Any], m: Any, mesh_path: Path) -> dict[st
     return out
 
 
+def _expand_solid_zones(
+    data: dict[str, Any], m: Any, mesh_path: Path, layout: FrameCraneLayout
+) -> dict[str, Any]:
+    """The frame crane with solid wheel zones as a mixed gmsh model's scene: the beams'
+    sections and materials, the supports, the hoisted mass, the joints (each girder's
+    segment at both ends, each wheel block at its stub's foot), the wheels' node-to-surface
+    contacts on their rails' tops (its ``[wheel]`` friction, braked), and, unless given, the
+    solids explicit and the beams implicit."""
+    from crane_fem.errors import ScenarioError
+
+    out = copy.deepcopy(data)
+    out["model"] = {"kind": "gmsh", "mesh": str(mesh_path)}
+    wheel = out.pop("wheel", {}) or {}
+    friction = float(wheel.get("friction", 0.0))
+    if friction > 0.0 and not bool(wheel.get("braked", True)):
+        raise ScenarioError(
+            "wheel.braked = false: rolling wheels are not built with wheel_zones = 'solid' "
+            "yet (their contacts are node-to-surface, sticking by friction both ways)"
+        )
+    girders = ["girder_1", "girder_2"]
+    stubs = [f"stub_{k}" for k in range(1, 5)]
+    lines = ["end_carriage_1", "end_carriage_2", "links", *girders, "trolley", "hook", *stubs]
+    volumes = ["zone_1", "zone_2", *(f"wheel_{k}" for k in range(1, 5))]
+    sec = [
+        _section(
+            m.end_carriage,
+            ["end_carriage_1", "end_carriage_2"],
+            [0.0, 0.0, 1.0],
+            {"shape": "rectangle", "b": m.end_carriage_width, "h": m.end_carriage_height},
+        ),
+        _section(None, girders, [0.0, 0.0, 1.0], layout.girder),
+        _section(None, ["links"], [0.0, 1.0, 0.0], layout.girder),
+        _section(
+            m.trolley,
+            ["trolley", "hook"],
+            [0.0, 0.0, 1.0],
+            {"shape": "rectangle", "b": m.frame_length / 3.0, "h": m.frame_thickness},
+        ),
+        {
+            "groups": stubs,
+            "orientation": [1.0, 0.0, 0.0],
+            "shape": "rectangle",
+            "b": m.wheel_length,
+            "h": m.wheel_width,
+        },
+    ]
+    for member in sec[3:]:
+        member["rotary_scale"] = m.rotary_scale
+    out["section"] = sec
+    mat = data["material"]
+    if isinstance(mat, dict):
+        structure = {k: v for k, v in mat.items() if k != "groups"}
+        if m.trolley is None:  # the grillage weighs the plate's mass
+            trolley = dict(structure, rho=structure["rho"] * layout.trolley_density_factor)
+            others = [g for g in lines + volumes if g not in ("trolley", "hook")]
+            out["material"] = [
+                dict(structure, groups=others),
+                dict(trolley, groups=["trolley", "hook"]),
+            ]
+    out["support"] = [{"group": f"support_{k}"} for k in range(1, 5)]
+    if m.hoisted_mass > 0.0:
+        w = m.girder_spacing + 2.0 * m.frame_overhang
+        L, t, mass = m.frame_length, m.frame_thickness, m.hoisted_mass
+        inertia = [mass * (L**2 + t**2) / 12, mass * (w**2 + t**2) / 12, mass * (w**2 + L**2) / 12]
+        out["mass"] = [{"group": "trolley_centre", "mass": mass, "inertia": inertia}]
+    out["joint"] = [
+        {"face": f"zone_{k}_{e}", "node": f"joint_{k}_{e}", "name": f"girder_{k}_{e}"}
+        for k in (1, 2)
+        for e in ("a", "b")
+    ] + [{"face": f"wheel_top_{k}", "node": f"wheel_node_{k}"} for k in range(1, 5)]
+    out["contact"] = [
+        {
+            "type": "surface",
+            "points": f"wheel_bottom_{k}",
+            "surface": f"rail_top_{1 if k <= 2 else 2}",
+            "friction": friction,
+            "name": f"wheel_{k}",
+        }
+        for k in range(1, 5)
+    ]
+    if not out.get("subdomain"):
+        out["subdomain"] = [
+            {"name": "wheel_zones", "groups": volumes, "scheme": "cd-lagrange"},
+            {"name": "beams", "groups": lines, "scheme": "newmark"},
+        ]
+    return out
+
+
 def mesh_file(m: Any) -> Path:
     """Where the frame crane of the model ``m`` is meshed: a file named by the hash of its
     geometry, in the system's temporary directory (the same on every rank)."""
@@ -291,7 +489,8 @@ def write_frame_crane_mesh(m: Any, comm: MPI.Comm) -> Path:
     if comm.rank == 0 and not path.is_file():
         try:
             tmp = path.with_suffix(f".{id(m)}.msh")
-            frame_crane_layout(m).sketch.write(tmp)
+            layout = frame_crane_layout(m)
+            layout.sketch.write(tmp, layout.solids)
             tmp.replace(path)
         except Exception as exc:  # gmsh raises bare Exception
             error = f"model: the frame crane could not be meshed: {exc}"

@@ -12,6 +12,7 @@ The frame crane's geometry and the frame tests draw their frames with it; a user
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -75,8 +76,13 @@ class FrameSketch:
                 out.append(p)
         return out
 
-    def write(self, path: str | Path) -> Path:
-        """Mesh and write the frame (gmsh; not collective: call it on one rank)."""
+    def write(self, path: str | Path, solids: Callable[[], None] | None = None) -> Path:
+        """Mesh and write the frame (gmsh; not collective: call it on one rank).
+
+        ``solids``: a mixed model's solids, drawn by a function called with gmsh's OpenCASCADE
+        model under way (the members drawn, apart from it: their points are not the solids');
+        it adds the volumes, their named groups and their sizes, and the whole is meshed in
+        3D. Without it, the members alone (the built-in kernel, as always)."""
         import gmsh
 
         keys = self._key_points()
@@ -84,7 +90,8 @@ class FrameSketch:
         try:
             gmsh.option.setNumber("General.Terminal", 0)
             gmsh.model.add("frame")
-            geo = gmsh.model.geo
+            geo = gmsh.model.occ if solids is not None else gmsh.model.geo
+            transfinite: list[tuple[int, int]] = []
             tags = [geo.addPoint(*p.tolist()) for p in keys]
 
             def tag_of(p: FloatArray) -> int:
@@ -106,14 +113,22 @@ class FrameSketch:
                     p0, p1 = m.a + s0 * axis, m.a + s1 * axis
                     line = geo.addLine(tag_of(p0), tag_of(p1))
                     n = max(1, round((s1 - s0) * length / m.size))
-                    geo.mesh.setTransfiniteCurve(line, n + 1)
+                    if solids is None:
+                        gmsh.model.geo.mesh.setTransfiniteCurve(line, n + 1)
+                    else:
+                        transfinite.append((line, n + 1))
                     lines.setdefault(m.group, []).append(line)
             geo.synchronize()
+            if solids is not None:
+                solids()
+                gmsh.model.occ.synchronize()
+                for line, n in transfinite:
+                    gmsh.model.mesh.setTransfiniteCurve(line, n)
             for name, ls in lines.items():
                 gmsh.model.addPhysicalGroup(1, ls, name=name)
             for name, ps in self.groups.items():
                 gmsh.model.addPhysicalGroup(0, sorted({tag_of(p) for p in ps}), name=name)
-            gmsh.model.mesh.generate(1)
+            gmsh.model.mesh.generate(1 if solids is None else 3)
             out = Path(path)
             out.parent.mkdir(parents=True, exist_ok=True)
             gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)

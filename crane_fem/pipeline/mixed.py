@@ -31,6 +31,7 @@ def scenario_views(sc: Scenario) -> tuple[Scenario, Scenario]:
         update={
             "material": materials(volumes),
             "support": [s for s in sc.support if s.group in surfaces],
+            "mass": [m for m in sc.mass if m.group in volumes],
             "section": [],
         }
     )
@@ -40,7 +41,7 @@ def scenario_views(sc: Scenario) -> tuple[Scenario, Scenario]:
             "model": frame,
             "material": materials(lines),
             "support": [s for s in sc.support if s.group in points],
-            "mass": [],
+            "mass": [m for m in sc.mass if m.group in points],
             "contact": [],
             "rope": [],
             "joint": [],

@@ -112,6 +112,11 @@ class FrameCraneModel(Section):
     girder: SectionShape | None = None
     end_carriage: SectionShape | None = None
     trolley: SectionShape | None = None
+    #: The wheels' zones: beams with the wheels as points on their lines (``"lines"``), or
+    #: 3D solids (``"solid"``: each girder's segment under its wheels with its rail, and the
+    #: wheels as blocks, tied to the beams by joints; issue 33) of elements ``solid_size``.
+    wheel_zones: Literal["lines", "solid"] = "lines"
+    solid_size: PositiveFloat = 0.02
 
     @model_validator(mode="after")
     def _consistent(self) -> FrameCraneModel:
@@ -145,8 +150,25 @@ class FrameCraneModel(Section):
             raise ValueError("end_carriage_length must span both girders")
         if self.fine > self.size:
             raise ValueError("fine must not exceed size")
+        if self.wheel_zones == "solid":
+            for key, bad in (
+                ("flanges", self.flanges),
+                ("hoist", self.hoist == "rope"),
+                ("girder", self.girder is not None),
+            ):
+                if bad:
+                    raise ValueError(
+                        f"{key}: not with wheel_zones = 'solid' yet (its solid zones have no "
+                        "flanges, its beams run implicit and a rope needs an explicit side, "
+                        "the joints sit on the girder-and-rail section's centroid)"
+                    )
         return self
 
     @property
     def groups(self) -> list[str]:
+        if self.wheel_zones == "solid":  # its beams, then its solids
+            stubs = [f"stub_{k}" for k in range(1, 5)]
+            beams = ["end_carriage_1", "end_carriage_2", "links", "girder_1", "girder_2"]
+            wheels = [f"wheel_{k}" for k in range(1, 5)]
+            return [*beams, "trolley", "hook", *stubs, "zone_1", "zone_2", *wheels]
         return list(FRAME_CRANE_GROUPS) + (["rope"] if self.hoist == "rope" else [])

@@ -302,10 +302,10 @@ class Scenario(Section):
                     "solid's face is clamped)"
                 )
         for i, ms in enumerate(self.mass):
-            need(f"mass[{i}].group", ms.group, "volume", volumes)
-            if ms.inertia is not None:
+            need(f"mass[{i}].group", ms.group, "volume or point", volumes + points)
+            if ms.inertia is not None and ms.group not in points:
                 raise ValueError(
-                    f"mass[{i}].inertia: rotary inertia applies to a frame's point masses"
+                    f"mass[{i}].inertia: rotary inertia applies to a beam's point masses"
                 )
         labels = []
         for i, c in enumerate(self.contact):
@@ -670,7 +670,8 @@ class Scenario(Section):
                 "(newmark.beta = 0.25, newmark.gamma = 0.5)"
             )
         if not self.subdomain:
-            if cpl is not None:
+            solid = isinstance(mdl, FrameCraneModel) and mdl.wheel_zones == "solid"
+            if cpl is not None and not solid:  # (solid wheel zones make their own)
                 raise ValueError(f"coupling method {cpl.method!r} needs [[subdomain]] entries")
             return self
         allowed = mdl.groups
