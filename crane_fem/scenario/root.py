@@ -716,12 +716,15 @@ class Scenario(Section):
                 "wheel.contact: a frame crane's wheels always slide on their girders' lines "
                 "(leave wheel.contact out)"
             )
-        if self.time.mass_scaling is not None and not isinstance(
-            self.model, CraneModel | GmshModel
+        solid_zones = (
+            isinstance(self.model, FrameCraneModel) and self.model.wheel_zones == "solid"
+        )
+        if self.time.mass_scaling is not None and not (
+            isinstance(self.model, CraneModel | GmshModel) or solid_zones
         ):
             raise ValueError(
                 "time.mass_scaling: applies to model.kind 'crane' and 'gmsh' only (their "
-                "tetrahedra's densities)"
+                "tetrahedra's densities), and to a frame crane's solid wheel zones"
             )
         return self
 
