@@ -66,9 +66,9 @@ def _joint_facets(sub: Subdomain, tagged: TaggedMesh, name: str, key: str) -> np
     sm.topology.create_connectivity(fdim, fdim + 1)
     ext = dolfinx.mesh.exterior_facet_indices(sm.topology)
     f2v = sm.topology.connectivity(fdim, 0)
-    on = np.array(
-        [bool(np.all(np.isin(sub.vertex_global[f2v.links(f)], ids))) for f in ext], dtype=bool
-    )
+    # Each exterior facet's vertices (a simplex's facet: fdim + 1 of them), all the group's?
+    verts = f2v.array.reshape(-1, fdim + 1)[ext]
+    on = np.all(np.isin(sub.vertex_global[verts], ids), axis=1)
     out = ext[on].astype(np.int32)
     found = sm.comm.allreduce(int(np.count_nonzero(out < sm.topology.index_map(fdim).size_local)))
     total = msh.comm.allreduce(int(mine.size), op=MPI.SUM)
