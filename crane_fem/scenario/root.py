@@ -716,9 +716,7 @@ class Scenario(Section):
                 "wheel.contact: a frame crane's wheels always slide on their girders' lines "
                 "(leave wheel.contact out)"
             )
-        solid_zones = (
-            isinstance(self.model, FrameCraneModel) and self.model.wheel_zones == "solid"
-        )
+        solid_zones = isinstance(self.model, FrameCraneModel) and self.model.wheel_zones == "solid"
         if self.time.mass_scaling is not None and not (
             isinstance(self.model, CraneModel | GmshModel) or solid_zones
         ):
