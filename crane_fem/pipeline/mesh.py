@@ -124,12 +124,6 @@ class MeshStage:
     #: the solids), or None.
     beams: MeshStage | None = None
 
-    def stage_of(self, tagged: TaggedMesh) -> MeshStage:
-        """The stage whose parent mesh is ``tagged``'s (this one, or its beams')."""
-        if self.beams is not None and tagged is self.beams.tagged:
-            return self.beams
-        return self
-
     def extent(self) -> float:
         """The largest side of the whole mesh's bounding box (m; collective: the same on
         every rank, whatever the partition)."""
