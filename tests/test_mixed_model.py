@@ -108,7 +108,7 @@ def write_bar(path: Path, variant: str = "") -> Path:
 def scenario(mesh: Path, **over: str) -> str:
     """The scene's TOML: the beams' left end clamped, gravity from rest, gc-mean at m = 4, 10 ms;
     ``over`` replaces a block by name (``support``, ``loading``, ``initial``, ``joints``,
-    ``subdomains``)."""
+    ``subdomains``, ``coupling``)."""
     blocks = {
         "support": '[[support]]\ngroup = "left_end"\n',
         "loading": "[loading]\ngravity = [0.0, 0.0, -9.81]\n",
@@ -122,6 +122,7 @@ def scenario(mesh: Path, **over: str) -> str:
             '[[subdomain]]\nname = "beams"\ngroups = ["beam_in", "beam_out"]\n'
             'scheme = "newmark"\n'
         ),
+        "coupling": '[coupling]\nmethod = "gc-mean"\nratio = 4\n',
     }
     blocks.update(over)
     return (
@@ -130,8 +131,7 @@ def scenario(mesh: Path, **over: str) -> str:
         f'shape = "rectangle"\nb = {SIDE}\nh = {SIDE}\n'
         f"[material]\nE = {E}\nnu = {NU}\nrho = {RHO}\n"
         + "".join(blocks.values())
-        + '[coupling]\nmethod = "gc-mean"\nratio = 4\n'
-        "[time]\nend = 0.01\ndt_factor = 0.9\n[output]\nxdmf = false\n"
+        + "[time]\nend = 0.01\ndt_factor = 0.9\n[output]\nxdmf = false\n"
     )
 
 
@@ -260,6 +260,14 @@ def test_preload_holds_the_cantilever_still(shared_tmp: Path) -> None:
             },
             "contact 'block_bottom': a frictional contact may not touch the interface",
         ),
+        (
+            "",
+            {
+                "coupling": '[coupling]\nmethod = "gc-mean"\nratio = 4\n'
+                "interface_truncation = 0.01\n"
+            },
+            "coupling.interface_truncation: not with joints",
+        ),
     ],
     ids=[
         "touching",
@@ -271,6 +279,7 @@ def test_preload_holds_the_cantilever_still(shared_tmp: Path) -> None:
         "face_twice",
         "one_kind",
         "friction_on_joint",
+        "truncation",
     ],
 )
 def test_bad_input_refused(

@@ -344,6 +344,11 @@ class Scenario(Section):
                 "coupling.method: a mixed model runs coupled, its solids explicit and its "
                 "beams implicit through their joints ('monolithic' is not built for it)"
             )
+        if self.coupling is not None and self.coupling.interface_truncation:
+            raise ValueError(
+                "coupling.interface_truncation: not with joints (a joint's six rows share "
+                "its face's DOFs: the operator is kept whole)"
+            )
         if not self.subdomain:
             raise ValueError(
                 "subdomain: a mixed model needs [[subdomain]] entries: its volume groups in "
