@@ -285,19 +285,12 @@ def _section(
     return {"groups": groups, "orientation": orientation, **default}
 
 
-def expand_frame_crane(data: dict[str, Any], m: Any, mesh_path: Path) -> dict[str, Any]:
-    """The frame crane scene ``data`` (a scenario mapping with ``model.kind =
-    "frame_crane"``, model ``m``) as a frame's: its mesh ``mesh_path`` (written already),
-    sections, materials, supports, masses, contacts (its ``[wheel]`` friction), rope."""
-    layout = frame_crane_layout(m)
-    if m.wheel_zones == "solid":
-        return _expand_solid_zones(data, m, mesh_path, layout)
-    out = copy.deepcopy(data)
-    out["model"] = {"kind": "frame", "mesh": str(mesh_path)}
-    wheel = out.pop("wheel", {}) or {}
-    mat = data["material"]
-    girders = ["girder_1", "girder_2", *(f"zone_{k}" for k in range(1, 5))]
-    wheels = [f"wheel_{k}" for k in range(1, 5)]
+def _member_sections(
+    m: Any, layout: FrameCraneLayout, girders: list[str], wheels: list[str]
+) -> list[dict[str, Any]]:
+    """The members' ``[[section]]`` entries: end carriages, ``girders`` and the links, the
+    trolley grillage and hook, the wheel stubs ``wheels`` (those last two thin members with
+    the model's ``rotary_scale``)."""
     sec = [
         _section(
             m.end_carriage,
@@ -325,27 +318,49 @@ def expand_frame_crane(data: dict[str, Any], m: Any, mesh_path: Path) -> dict[st
     ]
     for member in sec[3:]:  # the trolley's and the wheels' thin members
         member["rotary_scale"] = m.rotary_scale
-    out["section"] = sec
-    if m.trolley is None and isinstance(mat, dict):  # the grillage weighs the plate's mass
-        structure = {k: v for k, v in mat.items() if k != "groups"}
+    return sec
+
+
+def _weighed_trolley(
+    mat: dict[str, Any], layout: FrameCraneLayout, others: list[str]
+) -> list[dict[str, Any]]:
+    """The one ``[material]`` as two entries: ``others``, and the trolley grillage (and hook)
+    with its density scaled so that the grillage weighs what the plate does."""
+    structure = {k: v for k, v in mat.items() if k != "groups"}
+    trolley = dict(structure, rho=structure["rho"] * layout.trolley_density_factor)
+    return [dict(structure, groups=others), dict(trolley, groups=["trolley", "hook"])]
+
+
+def _hoisted_on_trolley(m: Any) -> dict[str, Any]:
+    """The hoisted mass rigidly at the trolley's centre, with a plate's rotary inertia."""
+    w = m.girder_spacing + 2.0 * m.frame_overhang
+    L, t, mass = m.frame_length, m.frame_thickness, m.hoisted_mass
+    inertia = [mass * (L**2 + t**2) / 12, mass * (w**2 + t**2) / 12, mass * (w**2 + L**2) / 12]
+    return {"group": "trolley_centre", "mass": mass, "inertia": inertia}
+
+
+def expand_frame_crane(data: dict[str, Any], m: Any, mesh_path: Path) -> dict[str, Any]:
+    """The frame crane scene ``data`` (a scenario mapping with ``model.kind =
+    "frame_crane"``, model ``m``) as a frame's: its mesh ``mesh_path`` (written already),
+    sections, materials, supports, masses, contacts (its ``[wheel]`` friction), rope."""
+    layout = frame_crane_layout(m)
+    if m.wheel_zones == "solid":
+        return _expand_solid_zones(data, m, mesh_path, layout)
+    out = copy.deepcopy(data)
+    out["model"] = {"kind": "frame", "mesh": str(mesh_path)}
+    wheel = out.pop("wheel", {}) or {}
+    mat = data["material"]
+    girders = ["girder_1", "girder_2", *(f"zone_{k}" for k in range(1, 5))]
+    wheels = [f"wheel_{k}" for k in range(1, 5)]
+    out["section"] = _member_sections(m, layout, girders, wheels)
+    if m.trolley is None and isinstance(mat, dict):
         others = ["end_carriage_1", "end_carriage_2", "links", *girders, *wheels]
-        trolley = dict(structure, rho=structure["rho"] * layout.trolley_density_factor)
-        out["material"] = [
-            dict(structure, groups=others),
-            dict(trolley, groups=["trolley", "hook"]),
-        ]
+        out["material"] = _weighed_trolley(mat, layout, others)
     out["support"] = [{"group": f"support_{k}"} for k in range(1, 5)]
     masses = []
     if m.hoisted_mass > 0.0:
         if m.hoist == "rigid":
-            w = m.girder_spacing + 2.0 * m.frame_overhang
-            L, t, mass = m.frame_length, m.frame_thickness, m.hoisted_mass
-            inertia = [
-                mass * (L**2 + t**2) / 12,
-                mass * (w**2 + t**2) / 12,
-                mass * (w**2 + L**2) / 12,
-            ]
-            masses.append({"group": "trolley_centre", "mass": mass, "inertia": inertia})
+            masses.append(_hoisted_on_trolley(m))
         else:
             masses.append({"group": "load", "mass": m.hoisted_mass})
             out["rope"] = [
@@ -407,48 +422,14 @@ def _expand_solid_zones(
     stubs = [f"stub_{k}" for k in range(1, 5)]
     lines = ["end_carriage_1", "end_carriage_2", "links", *girders, "trolley", "hook", *stubs]
     volumes = ["zone_1", "zone_2", *(f"wheel_{k}" for k in range(1, 5))]
-    sec = [
-        _section(
-            m.end_carriage,
-            ["end_carriage_1", "end_carriage_2"],
-            [0.0, 0.0, 1.0],
-            {"shape": "rectangle", "b": m.end_carriage_width, "h": m.end_carriage_height},
-        ),
-        _section(None, girders, [0.0, 0.0, 1.0], layout.girder),
-        _section(None, ["links"], [0.0, 1.0, 0.0], layout.girder),
-        _section(
-            m.trolley,
-            ["trolley", "hook"],
-            [0.0, 0.0, 1.0],
-            {"shape": "rectangle", "b": m.frame_length / 3.0, "h": m.frame_thickness},
-        ),
-        {
-            "groups": stubs,
-            "orientation": [1.0, 0.0, 0.0],
-            "shape": "rectangle",
-            "b": m.wheel_length,
-            "h": m.wheel_width,
-        },
-    ]
-    for member in sec[3:]:
-        member["rotary_scale"] = m.rotary_scale
-    out["section"] = sec
+    out["section"] = _member_sections(m, layout, girders, stubs)
     mat = data["material"]
-    if isinstance(mat, dict):
-        structure = {k: v for k, v in mat.items() if k != "groups"}
-        if m.trolley is None:  # the grillage weighs the plate's mass
-            trolley = dict(structure, rho=structure["rho"] * layout.trolley_density_factor)
-            others = [g for g in lines + volumes if g not in ("trolley", "hook")]
-            out["material"] = [
-                dict(structure, groups=others),
-                dict(trolley, groups=["trolley", "hook"]),
-            ]
+    if m.trolley is None and isinstance(mat, dict):
+        others = [g for g in lines + volumes if g not in ("trolley", "hook")]
+        out["material"] = _weighed_trolley(mat, layout, others)
     out["support"] = [{"group": f"support_{k}"} for k in range(1, 5)]
     if m.hoisted_mass > 0.0:
-        w = m.girder_spacing + 2.0 * m.frame_overhang
-        L, t, mass = m.frame_length, m.frame_thickness, m.hoisted_mass
-        inertia = [mass * (L**2 + t**2) / 12, mass * (w**2 + t**2) / 12, mass * (w**2 + L**2) / 12]
-        out["mass"] = [{"group": "trolley_centre", "mass": mass, "inertia": inertia}]
+        out["mass"] = [_hoisted_on_trolley(m)]
     out["joint"] = [
         {"face": f"zone_{k}_{e}", "node": f"joint_{k}_{e}", "name": f"girder_{k}_{e}"}
         for k in (1, 2)

@@ -40,7 +40,7 @@ from crane_fem.model import assemble_operators
 from crane_fem.preload.crane import Preload, vertex_blocks
 from crane_fem.subdomains import PointMasses
 
-__all__ = ["LOOSE_TIE", "BondedPoints", "bonded_preload"]
+__all__ = ["LOOSE_TIE", "BondedPoints", "bonded_preload", "lu_solve"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -206,32 +206,15 @@ def bonded_preload(
                 Ka.setValues(idx, idx, ke.ravel().tolist(), addv=True)
         rope.add(Ka, taut)
         Ka.assemble()
-        rhs, sol = Ka.createVecRight(), Ka.createVecRight()
-        rhs.array[:] = f
-        ksp = PETSc.KSP().create(comm)
-        ksp.setOptionsPrefix("crane_fem_bonded_preload_")
-        ksp.setOperators(Ka)
-        ksp.setType("preonly")
-        pc = ksp.getPC()
-        pc.setType("lu")
-        pc.setFactorSolverType("mumps")
-        ksp.setErrorIfNotConverged(False)
-        try:
-            ksp.solve(rhs, sol)
-            failed = bool(ksp.is_diverged)
-        except PETSc.Error:
-            failed = True
-        ok = not failed and bool(np.all(np.isfinite(sol.array_r)))
-        ok = comm.allreduce(ok, MPI.LAND)
-        u_own = sol.array_r.reshape(-1, bs).copy()
-        for obj in (ksp, rhs, sol, Ka):
-            obj.destroy()
-        if not ok:
+        x = lu_solve(Ka, f, "crane_fem_bonded_preload_")
+        Ka.destroy()
+        if x is None:
             raise CraneFemError(
                 "static preload: the self-weight solve failed: a body is held neither by a "
                 "[[support]] nor by a closed contact (check the supports and that every body "
                 "rests on another with its contact surfaces touching at t = 0)"
             )
+        u_own = x.reshape(-1, bs)
         disp = np.zeros((n_vertices, bs))
         for ids, vals in comm.allgather((owned_gv, u_own)):
             disp[ids] = vals
@@ -275,6 +258,33 @@ def bonded_preload(
         float(np.max(np.abs(force), initial=0.0) / k_p) if k_p > 0.0 else 0.0,
         active,
     )
+
+
+def lu_solve(A: PETSc.Mat, rhs: FloatArray, prefix: str) -> FloatArray | None:
+    """A⁻¹ rhs on this rank's rows by MUMPS LU (options under ``prefix``), or None on every
+    rank when the factorisation fails or the solution is not finite (collective)."""
+    comm = A.getComm().tompi4py()
+    b, x = A.createVecRight(), A.createVecRight()
+    b.array[:] = rhs
+    ksp = PETSc.KSP().create(A.getComm())
+    ksp.setOptionsPrefix(prefix)
+    ksp.setOperators(A)
+    ksp.setType("preonly")
+    pc = ksp.getPC()
+    pc.setType("lu")
+    pc.setFactorSolverType("mumps")
+    ksp.setFromOptions()
+    ksp.setErrorIfNotConverged(False)
+    try:
+        ksp.solve(b, x)
+        failed = bool(ksp.is_diverged)
+    except PETSc.Error:
+        failed = True
+    out = np.array(x.array_r, dtype=np.float64)
+    ok = comm.allreduce(not failed and bool(np.all(np.isfinite(out))), MPI.LAND)
+    for obj in (ksp, b, x):
+        obj.destroy()
+    return out if ok else None
 
 
 class _RopeSprings:

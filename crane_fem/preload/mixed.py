@@ -23,7 +23,7 @@ from petsc4py import PETSc
 
 from crane_fem.contact import ContactSet
 from crane_fem.errors import CraneFemError
-from crane_fem.preload.bonded import BondedPoints
+from crane_fem.preload.bonded import BondedPoints, lu_solve
 from crane_fem.preload.crane import Preload
 from crane_fem.subdomains import Subdomain
 
@@ -163,29 +163,12 @@ def mixed_preload(
         A.setPreallocationCOO(R.astype(PETSc.IntType), C.astype(PETSc.IntType))  # type: ignore[arg-type]
         A.setValuesCOO(V.astype(PETSc.ScalarType), addv=True)  # type: ignore[arg-type]
         A.assemble()
-        rhs, sol = A.createVecRight(), A.createVecRight()
-        rhs.array[: lay.n_s] = f_s
-        rhs.array[lay.n_s : lay.n_s + lay.n_b] = f_b
-        rhs.array[lay.n_s + lay.n_b :] = 0.0
-        ksp = PETSc.KSP().create(comm)  # type: ignore[arg-type]
-        ksp.setOptionsPrefix("crane_fem_mixed_preload_")
-        ksp.setOperators(A)
-        ksp.setType("preonly")
-        pc = ksp.getPC()
-        pc.setType("lu")
-        pc.setFactorSolverType("mumps")
-        ksp.setFromOptions()
-        ksp.setErrorIfNotConverged(False)
-        try:
-            ksp.solve(rhs, sol)
-            failed = bool(ksp.is_diverged)
-        except PETSc.Error:
-            failed = True
-        x = sol.array_r.copy()
-        ok = comm.allreduce(not failed and bool(np.all(np.isfinite(x))), MPI.LAND)
-        for obj in (ksp, rhs, sol, A):
-            obj.destroy()
-        if not ok:
+        rhs = np.zeros(lay.local)
+        rhs[: lay.n_s] = f_s
+        rhs[lay.n_s : lay.n_s + lay.n_b] = f_b
+        x = lu_solve(A, rhs, "crane_fem_mixed_preload_")
+        A.destroy()
+        if x is None:
             raise CraneFemError(
                 "static preload: the self-weight solve failed: a part is held neither by a "
                 "[[support]], a [[joint]] nor a closed contact"
