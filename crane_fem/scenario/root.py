@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
@@ -263,37 +264,14 @@ class Scenario(Section):
                     f"{', '.join(names) or 'none'})"
                 )
 
-        seen: dict[str, int] = {}
-        for i, sec in enumerate(self.section):
-            for g in sec.groups:
-                need(f"section[{i}].groups", g, "line", lines)
-                if g in seen:
-                    raise ValueError(f"section[{i}].groups: {g!r} already has section[{seen[g]}]")
-                seen[g] = i
-        missing = [g for g in lines if g not in seen]
-        if missing:
-            raise ValueError(
-                f"section: line groups {missing} have no [[section]] entry (each member needs "
-                "its cross-section and orientation)"
-            )
-        if isinstance(self.material, list):
-            owner: dict[str, int] = {}
-            for i, m in enumerate(self.material):
-                for g in m.groups:
-                    need(f"material[{i}].groups", g, "volume or line", volumes + lines)
-                    if g in owner:
-                        raise ValueError(
-                            f"material[{i}].groups: {g!r} already has material[{owner[g]}]"
-                        )
-                    owner[g] = i
-                if m.rayleigh_coefficients != self.material[0].rayleigh_coefficients:
-                    raise ValueError(
-                        f"material[{i}]: its damping differs from material[0]'s; the damping "
-                        "C = αM + βK is one per scene"
-                    )
-            lacking = [g for g in volumes + lines if g not in owner]
-            if lacking:
-                raise ValueError(f"material: groups {lacking} have no [[material]] entry")
+        self._sections_and_materials(
+            lambda key, g: need(key, g, "line", lines),
+            lambda key, g: need(key, g, "volume or line", volumes + lines),
+            lines,
+            volumes + lines,
+            {},
+            "groups",
+        )
         for i, sup in enumerate(self.support):
             need(f"support[{i}].group", sup.group, "surface or point", surfaces + points)
             if sup.group in surfaces and sup.dofs != "clamped":
@@ -392,6 +370,56 @@ class Scenario(Section):
                 f"(m/s), not a number (got {self.initial.velocity})"
             )
 
+    def _sections_and_materials(
+        self,
+        line: Callable[[str, str], None],
+        cell: Callable[[str, str], None],
+        lines: list[str],
+        cells: list[str],
+        ropes: dict[str, int],
+        what: str,
+    ) -> None:
+        """Every beam line group (``lines``, ropes aside) in one ``[[section]]``, every cell
+        group (``cells``) in one ``[[material]]`` of one damping; ``line`` and ``cell`` refuse
+        a name that is not such a group; ``what`` names ``cells`` in the refusal."""
+        seen: dict[str, int] = {}
+        for i, sec in enumerate(self.section):
+            for g in sec.groups:
+                line(f"section[{i}].groups", g)
+                if g in ropes:
+                    raise ValueError(
+                        f"section[{i}].groups: {g!r} is rope[{ropes[g]}]'s line (a rope is no "
+                        "beam: it takes no section)"
+                    )
+                if g in seen:
+                    raise ValueError(f"section[{i}].groups: {g!r} already has section[{seen[g]}]")
+                seen[g] = i
+        missing = [g for g in lines if g not in seen and g not in ropes]
+        if missing:
+            raise ValueError(
+                f"section: line groups {missing} have no [[section]] entry (each member needs "
+                "its cross-section and orientation)"
+            )
+        if not isinstance(self.material, list):
+            return
+        owner: dict[str, int] = {}
+        for i, m in enumerate(self.material):
+            for g in m.groups:
+                cell(f"material[{i}].groups", g)
+                if g in owner:
+                    raise ValueError(
+                        f"material[{i}].groups: {g!r} already has material[{owner[g]}]"
+                    )
+                owner[g] = i
+            if m.rayleigh_coefficients != self.material[0].rayleigh_coefficients:
+                raise ValueError(
+                    f"material[{i}]: its damping differs from material[0]'s; the damping "
+                    "C = αM + βK is one per scene"
+                )
+        lacking = [g for g in cells if g not in owner and g not in ropes]
+        if lacking:
+            raise ValueError(f"material: {what} {lacking} have no [[material]] entry")
+
     def _frame_groups(self, mdl: FrameModel) -> Scenario:
         """A frame's entries name its mesh's groups: line groups for sections, materials and
         lines, point groups for supports, masses, points and rope ends."""
@@ -414,42 +442,7 @@ class Scenario(Section):
             if r.line in ropes:
                 raise ValueError(f"rope[{i}].line: {r.line!r} is already rope[{ropes[r.line]}]")
             ropes[r.line] = i
-        seen: dict[str, int] = {}
-        for i, sec in enumerate(self.section):
-            for g in sec.groups:
-                line(f"section[{i}].groups", g)
-                if g in ropes:
-                    raise ValueError(
-                        f"section[{i}].groups: {g!r} is rope[{ropes[g]}]'s line (a rope is no "
-                        "beam: it takes no section)"
-                    )
-                if g in seen:
-                    raise ValueError(f"section[{i}].groups: {g!r} already has section[{seen[g]}]")
-                seen[g] = i
-        missing = [g for g in lines if g not in seen and g not in ropes]
-        if missing:
-            raise ValueError(
-                f"section: line groups {missing} have no [[section]] entry (each member needs "
-                "its cross-section and orientation)"
-            )
-        if isinstance(self.material, list):
-            owner: dict[str, int] = {}
-            for i, m in enumerate(self.material):
-                for g in m.groups:
-                    line(f"material[{i}].groups", g)
-                    if g in owner:
-                        raise ValueError(
-                            f"material[{i}].groups: {g!r} already has material[{owner[g]}]"
-                        )
-                    owner[g] = i
-                if m.rayleigh_coefficients != self.material[0].rayleigh_coefficients:
-                    raise ValueError(
-                        f"material[{i}]: its damping differs from material[0]'s; the damping "
-                        "C = αM + βK is one per scene"
-                    )
-            lacking = [g for g in lines if g not in owner and g not in ropes]
-            if lacking:
-                raise ValueError(f"material: line groups {lacking} have no [[material]] entry")
+        self._sections_and_materials(line, line, lines, lines, ropes, "line groups")
         for i, sup in enumerate(self.support):
             point(f"support[{i}].group", sup.group)
         for i, ms in enumerate(self.mass):
