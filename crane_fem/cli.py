@@ -341,7 +341,8 @@ def _modes(sc: Scenario, args: argparse.Namespace, comm: Any) -> int:
     if comm.rank == 0:
         for line in report_lines(report):
             print(f"crane-fem: {line}")
-        print(f"crane-fem: outputs in {out}/ (modes.json, modes.xdmf, modes.h5)")
+        files = "modes.json" if report.mixed else "modes.json, modes.xdmf, modes.h5"
+        print(f"crane-fem: outputs in {out}/ ({files})")
     return 0
 
 

@@ -3,6 +3,7 @@ their shapes, estimate the seismic loads by response spectrum, compare with a ru
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
@@ -12,6 +13,7 @@ from mpi4py import MPI
 from crane_fem.errors import ScenarioError
 from crane_fem.modes.eigen import solve_modes
 from crane_fem.modes.estimate import spectral_estimate
+from crane_fem.modes.mixed import solve_mixed_modes
 from crane_fem.modes.operators import assemble_closed_structure
 from crane_fem.modes.report import (
     ModesReport,
@@ -21,7 +23,7 @@ from crane_fem.modes.report import (
 )
 from crane_fem.modes.spectral import modal_damping
 from crane_fem.modes.xdmf import write_mode_shapes
-from crane_fem.scenario import BarModel, Scenario
+from crane_fem.scenario import BarModel, GmshModel, Scenario
 
 __all__ = ["run_modes"]
 
@@ -90,12 +92,9 @@ def run_modes(
         reached = float(summary.get("t_reached_s", window))
         window = min(reached, float(summary.get("time_end_s", reached)))
     sc = concrete_scenario(sc, comm)
+    if isinstance(sc.model, GmshModel) and sc.model.mixed:
+        return _mixed(sc, comm, n, Path(out), degree, damping, compare)
     mesh = build_mesh(sc, comm)
-    if mesh.beams is not None:
-        raise ScenarioError(
-            "modes: a mixed model's modes (solids and beams through their joints) are not "
-            "built yet; run the scene and read its history, or model it as a frame or a solid"
-        )
     if mesh.fixed_vertices.size == 0 and mesh.pinned_vertices.size == 0:
         raise ScenarioError("modes: the structure has no support (it has rigid modes)")
     if degree != 1 and mesh.formulation.name != "solid":
@@ -128,5 +127,45 @@ def run_modes(
         Path(out).mkdir(parents=True, exist_ok=True)
         text = json.dumps(report_dict(report), indent=2)
         (Path(out) / "modes.json").write_text(text + "\n", encoding="utf-8")
+    comm.barrier()
+    return report
+
+
+def _mixed(
+    sc: Scenario,
+    comm: MPI.Comm,
+    n: int,
+    out: Path,
+    degree: int,
+    damping: float | None,
+    compare: Path | None,
+) -> ModesReport:
+    """A mixed model's modes (crane_fem.modes.mixed), the same on every rank (each computes
+    them on its own: MPI.COMM_SELF); modes.json only: no shapes file, no response-spectrum
+    estimate (collective: the ranks agree on an error)."""
+    from crane_fem.pipeline import build_mesh
+
+    if degree != 1:
+        raise ScenarioError(f"modes: --degree {degree} is for solids; a mixed model is P1")
+    if compare is not None:
+        raise ScenarioError(
+            "modes --compare: a mixed model's response-spectrum estimate is not built; its "
+            "modes are (drop --compare)"
+        )
+    error, res = None, None
+    try:
+        res = solve_mixed_modes(sc, build_mesh(sc, MPI.COMM_SELF), n)
+    except ScenarioError as exc:
+        error = str(exc)
+    _agree(comm, error)
+    assert res is not None
+    mat = sc.material[0] if isinstance(sc.material, list) else sc.material
+    zeta = modal_damping(res.basis.omega, mat.rayleigh_coefficients, damping)
+    report = ModesReport(sc.name, 1, res.free_dofs, res.mass_total, res.basis, zeta, None, [])
+    report = dataclasses.replace(report, mixed=True)
+    if comm.rank == 0:
+        out.mkdir(parents=True, exist_ok=True)
+        text = json.dumps(report_dict(report), indent=2)
+        (out / "modes.json").write_text(text + "\n", encoding="utf-8")
     comm.barrier()
     return report

@@ -70,6 +70,8 @@ class ModesReport:
     estimate: SpectralEstimate | None
     comparison: list[ComparisonRow]
     run: Path | None = None
+    #: A mixed model's (crane_fem.modes.mixed): no shapes file, no estimate.
+    mixed: bool = False
 
 
 def read_run_summary(run: Path) -> dict[str, Any]:
@@ -173,7 +175,12 @@ def report_dict(rep: ModesReport) -> dict[str, Any]:
         "their triangles) tied in x, y, z by k_p; flanges and open points left open",
         "degree": rep.degree,
         "mass_matrix": "consistent",
-        "shapes": "mass-normalised (phi^T M phi = 1), modes.xdmf",
+        "shapes": (
+            "mass-normalised (phi^T M phi = 1), not written for a mixed model (solids and "
+            "beams through their joints: the joints' beam nodes eliminated)"
+            if rep.mixed
+            else "mass-normalised (phi^T M phi = 1), modes.xdmf"
+        ),
         "free_dofs": rep.free_dofs,
         "mass_total_kg": rep.mass_total,
         "mass_free_kg": _xyz(b.total_mass),
@@ -250,6 +257,12 @@ def report_lines(rep: ModesReport) -> list[str]:
             f"{fr[1]:8.2f} {fr[2]:8.2f} {cu[0]:14.2f} {cu[1]:8.2f} {cu[2]:8.2f}"
         )
     est = rep.estimate
+    if rep.mixed:
+        lines.append(
+            "a mixed model (solids and beams through their joints, the joints' beam nodes "
+            "eliminated): no mode shapes file, no response-spectrum estimate (not built)"
+        )
+        return lines
     if est is None:
         lines.append("no ground motion in the scenario: no response-spectrum estimate")
         return lines

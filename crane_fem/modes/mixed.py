@@ -1,0 +1,155 @@
+"""A mixed model's natural modes (solids and beams in one model, tied by the rigid sections of
+their joints, THEORY.md §11): each part's closed structure as for a solid or a frame
+(:func:`crane_fem.modes.operators.assemble_closed_structure`: the free DOFs' K and consistent
+M, touching contacts tied, supports removed), the joints' beam nodes eliminated by the rigid
+section's rows, (u_P, θ_P) = B⁻¹ C u_S (:func:`crane_fem.coupling.rigid_section.face_rows`,
+the rows the coupled run ties), and K φ = ω² M φ on what is left by SciPy's shift-and-invert
+Lanczos. On one process: under mpiexec every rank computes the same modes on its own."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+from petsc4py import PETSc
+
+from crane_fem.coupling.rigid_section import face_rows
+from crane_fem.errors import CraneFemError, ScenarioError
+from crane_fem.modes.eigen import RIGID_TOL, ModalBasis
+from crane_fem.modes.operators import ClosedStructure, assemble_closed_structure
+from crane_fem.pipeline.mesh import MeshStage
+from crane_fem.scenario import Scenario
+
+__all__ = ["MixedModes", "solve_mixed_modes"]
+
+FloatArray = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class MixedModes:
+    """The lowest modes of a mixed model: its :class:`ModalBasis` (shapes over the kept
+    DOFs: the solids' free DOFs, then the beams' free DOFs but the joints' nodes), the kept
+    DOFs' count and the whole structure's mass (kg)."""
+
+    basis: ModalBasis
+    free_dofs: int
+    mass_total: float
+
+
+def _csr(A: PETSc.Mat) -> sp.csr_matrix:
+    indptr, indices, data = A.getValuesCSR()
+    return sp.csr_matrix((data, indices, indptr), shape=A.getSize())
+
+
+def _joint_elimination(
+    sc: Scenario, mesh: MeshStage, st_s: ClosedStructure, st_b: ClosedStructure
+) -> tuple[sp.csr_matrix, npt.NDArray[np.int64]]:
+    """T: q = (u_S free, u_b kept) → (u_S free, u_b free), and the kept beam DOFs."""
+    n_s, n_b = st_s.free.size, st_b.free.size
+    free_s = {int(d): i for i, d in enumerate(st_s.free)}
+    free_b = {int(d): i for i, d in enumerate(st_b.free)}
+    assert mesh.beams is not None
+    tagged, beams = mesh.tagged, mesh.beams.tagged
+    rows, cols, vals, slaves = [], [], [], []
+    for j in sc.joint:
+        facets = tagged.facet_tags.indices[tagged.facet_tags.values == tagged.facet_groups[j.face]]
+        face = face_rows(st_s.V, facets.astype(np.int32), j.label)
+        node = int(beams.global_vertices(beams.facet_vertices(j.node))[0])
+        blk = int(np.flatnonzero(st_b.block_vertex == node)[0])
+        C = np.zeros((6, n_s))
+        for r, d, c in zip(face.rows, face.dofs, face.coeffs, strict=True):
+            if int(d) in free_s:  # (a clamped face DOF adds nothing)
+                C[r, free_s[int(d)]] += c
+        G = np.linalg.solve(face.beam_block, C)
+        for k in range(6):
+            if 6 * blk + k not in free_b:
+                raise ScenarioError(
+                    f"modes: joint {j.label}'s beam node is supported; a joint's node moves "
+                    "with its face (support the solid's face or another beam node instead)"
+                )
+            slave = free_b[6 * blk + k]
+            slaves.append(slave)
+            nz = np.flatnonzero(G[k])
+            rows += [slave] * nz.size
+            cols += nz.tolist()
+            vals += G[k, nz].tolist()
+    keep_b = np.setdiff1d(np.arange(n_b), np.asarray(slaves, dtype=np.int64))
+    n_q = n_s + keep_b.size
+    T_s = sp.hstack([sp.identity(n_s, format="csr"), sp.csr_matrix((n_s, keep_b.size))])
+    T_keep = sp.csr_matrix(
+        (np.ones(keep_b.size), (keep_b, n_s + np.arange(keep_b.size))), shape=(n_b, n_q)
+    )
+    T_slave = sp.csr_matrix((vals, (rows, cols)), shape=(n_b, n_q))
+    return sp.vstack([T_s, T_keep + T_slave]).tocsr(), keep_b
+
+
+def solve_mixed_modes(sc: Scenario, mesh: MeshStage, n: int) -> MixedModes:
+    """The ``n`` lowest modes of a mixed model (``mesh``: its solids' stage, with its beams'
+    stage as ``mesh.beams``, built on one process). Mass-normalised shapes, each signed so
+    that its largest participation factor is positive, as :func:`solve_modes`.
+
+    Raises:
+        ScenarioError: ``n`` above the free DOFs; the supports leave a rigid mode; a joint's
+            beam node supported.
+    """
+    assert mesh.beams is not None
+    mat = sc.material[0] if isinstance(sc.material, list) else sc.material
+    g = np.asarray(sc.loading.gravity, dtype=np.float64)
+    parts = [
+        assemble_closed_structure(stage, mat.E, mat.nu, mat.rho, g) for stage in (mesh, mesh.beams)
+    ]
+    try:
+        st_s, st_b = parts
+        T, keep_b = _joint_elimination(sc, mesh, st_s, st_b)
+        K0 = sp.block_diag([_csr(st_s.K), _csr(st_b.K)])
+        M0 = sp.block_diag([_csr(st_s.M), _csr(st_b.M)])
+        K = (T.T @ K0 @ T).tocsc()
+        M = (T.T @ M0 @ T).tocsc()
+        K, M = 0.5 * (K + K.T), 0.5 * (M + M.T)
+        # The translations' influence vectors: all the solids' DOFs of a direction, the beams'
+        # translation DOFs (a rigid translation meets the joints: it lies in T's range).
+        n_s = st_s.free.size
+        R = np.zeros((3, T.shape[1]))
+        for d in range(3):
+            R[d, :n_s] = st_s.free % 3 == d
+            R[d, n_s:] = st_b.free[keep_b] % 6 == d
+        mass_total = sum(st.mass_total for st in parts)
+    finally:
+        for st in parts:
+            st.destroy()
+    n_q = K.shape[0]
+    if not 1 <= n <= n_q - 1:
+        raise ScenarioError(f"modes: --n {n} is more than the {n_q} free DOFs allow")
+    lam, phi = spla.eigsh(K, k=n, M=M, sigma=0.0, which="LM")
+    order = np.argsort(lam)
+    lam, phi = lam[order], phi[:, order].T.copy()
+    dk, dm = K.diagonal(), M.diagonal()
+    scale = float(np.max(np.divide(dk, dm, out=np.zeros_like(dk), where=dm > 0.0)))
+    rigid = int(np.count_nonzero(lam < RIGID_TOL * scale))
+    if rigid:
+        raise ScenarioError(
+            f"modes: the supports leave the structure {rigid} rigid mode(s) (ω² ≈ 0); clamp "
+            "or pin more of it"
+        )
+    for k in range(n):
+        phi[k] /= math.sqrt(float(phi[k] @ (M @ phi[k])))
+    MR = np.asarray(M @ R.T)
+    participation = phi @ MR
+    total = np.einsum("dj,jd->d", R, MR)
+    for k in range(n):
+        size = np.abs(participation[k])
+        d = int(np.flatnonzero(size >= (1.0 - 1e-9) * size.max())[0])
+        sign = np.sign(participation[k, d])
+        if abs(participation[k, d]) < 1e-8 * math.sqrt(float(total.max())):
+            sign = np.sign(phi[k][int(np.argmax(np.abs(phi[k])))]) or 1.0
+        if sign < 0:
+            phi[k] *= -1.0
+            participation[k] *= -1.0
+    if not np.all(np.isfinite(lam)):
+        raise CraneFemError("modes: the mixed model's eigensolve returned non-finite values")
+    basis = ModalBasis(np.sqrt(lam), phi, participation, total)
+    return MixedModes(basis, n_q, float(mass_total))
