@@ -3,7 +3,6 @@ their shapes, estimate the seismic loads by response spectrum, compare with a ru
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from pathlib import Path
 
@@ -161,8 +160,9 @@ def _mixed(
     assert res is not None
     mat = sc.material[0] if isinstance(sc.material, list) else sc.material
     zeta = modal_damping(res.basis.omega, mat.rayleigh_coefficients, damping)
-    report = ModesReport(sc.name, 1, res.free_dofs, res.mass_total, res.basis, zeta, None, [])
-    report = dataclasses.replace(report, mixed=True)
+    report = ModesReport(
+        sc.name, 1, res.free_dofs, res.mass_total, res.basis, zeta, None, [], mixed=True
+    )
     if comm.rank == 0:
         out.mkdir(parents=True, exist_ok=True)
         text = json.dumps(report_dict(report), indent=2)

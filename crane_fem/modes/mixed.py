@@ -125,6 +125,8 @@ def solve_mixed_modes(sc: Scenario, mesh: MeshStage, n: int) -> MixedModes:
     if not 1 <= n <= n_q - 1:
         raise ScenarioError(f"modes: --n {n} is more than the {n_q} free DOFs allow")
     lam, phi = spla.eigsh(K, k=n, M=M, sigma=0.0, which="LM")
+    if not np.all(np.isfinite(lam)):
+        raise CraneFemError("modes: the mixed model's eigensolve returned non-finite values")
     order = np.argsort(lam)
     lam, phi = lam[order], phi[:, order].T.copy()
     dk, dm = K.diagonal(), M.diagonal()
@@ -149,7 +151,5 @@ def solve_mixed_modes(sc: Scenario, mesh: MeshStage, n: int) -> MixedModes:
         if sign < 0:
             phi[k] *= -1.0
             participation[k] *= -1.0
-    if not np.all(np.isfinite(lam)):
-        raise CraneFemError("modes: the mixed model's eigensolve returned non-finite values")
     basis = ModalBasis(np.sqrt(lam), phi, participation, total)
     return MixedModes(basis, n_q, float(mass_total))
