@@ -35,10 +35,14 @@ class TaggedMesh:
         parts = self.mesh.comm.allgather(np.asarray(mine, dtype=np.int64))
         return np.unique(np.concatenate(parts))
 
+    def facets(self, name: str) -> npt.NDArray[np.int32]:
+        """Local facets (owned and ghost) of a named facet group."""
+        return self.facet_tags.indices[self.facet_tags.values == self.facet_groups[name]]
+
     def facet_vertices(self, name: str) -> npt.NDArray[np.int32]:
         """Local vertices of the facets of a named facet group."""
         tdim = self.mesh.topology.dim
-        facets = self.facet_tags.indices[self.facet_tags.values == self.facet_groups[name]]
+        facets = self.facets(name)
         if tdim == 1:
             return facets.astype(np.int32)
         self.mesh.topology.create_connectivity(tdim - 1, 0)

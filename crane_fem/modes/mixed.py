@@ -56,8 +56,7 @@ def _joint_elimination(
     tagged, beams = mesh.tagged, mesh.beams.tagged
     rows, cols, vals, slaves = [], [], [], []
     for j in sc.joint:
-        facets = tagged.facet_tags.indices[tagged.facet_tags.values == tagged.facet_groups[j.face]]
-        face = face_rows(st_s.V, facets.astype(np.int32), j.label)
+        face = face_rows(st_s.V, tagged.facets(j.face).astype(np.int32), j.label)
         node = int(beams.global_vertices(beams.facet_vertices(j.node))[0])
         blk = int(np.flatnonzero(st_b.block_vertex == node)[0])
         C = np.zeros((6, n_s))

@@ -49,7 +49,7 @@ def _joint_facets(sub: Subdomain, tagged: TaggedMesh, name: str, key: str) -> np
     """
     msh = tagged.mesh
     fdim = msh.topology.dim - 1
-    facets = tagged.facet_tags.indices[tagged.facet_tags.values == tagged.facet_groups[name]]
+    facets = tagged.facets(name)
     msh.topology.create_connectivity(fdim, fdim + 1)
     f2c = msh.topology.connectivity(fdim, fdim + 1)
     n_own = msh.topology.index_map(fdim).size_local
