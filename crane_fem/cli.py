@@ -341,7 +341,9 @@ def _modes(sc: Scenario, args: argparse.Namespace, comm: Any) -> int:
     if comm.rank == 0:
         for line in report_lines(report):
             print(f"crane-fem: {line}")
-        files = "modes.json" if report.mixed else "modes.json, modes.xdmf, modes.h5"
+        files = "modes.json, modes.xdmf, modes.h5" + (
+            ", modes_beams.xdmf, modes_beams.h5" if report.mixed else ""
+        )
         print(f"crane-fem: outputs in {out}/ ({files})")
     return 0
 

@@ -140,8 +140,9 @@ def _mixed(
     compare: Path | None,
 ) -> ModesReport:
     """A mixed model's modes (crane_fem.modes.mixed), the same on every rank (each computes
-    them on its own: MPI.COMM_SELF); modes.json only: no shapes file, no response-spectrum
-    estimate (collective: the ranks agree on an error)."""
+    them on its own: MPI.COMM_SELF); modes.json and rank 0's shapes files (modes.xdmf on
+    the solids, modes_beams.xdmf on the beams), no response-spectrum estimate (collective:
+    the ranks agree on an error)."""
     from crane_fem.pipeline import build_mesh
 
     if degree != 1:
@@ -153,7 +154,8 @@ def _mixed(
         )
     error, res = None, None
     try:
-        res = solve_mixed_modes(sc, build_mesh(sc, MPI.COMM_SELF), n)
+        shapes = out if comm.rank == 0 else None
+        res = solve_mixed_modes(sc, build_mesh(sc, MPI.COMM_SELF), n, shapes)
     except ScenarioError as exc:
         error = str(exc)
     _agree(comm, error)

@@ -4,12 +4,14 @@ their joints, THEORY.md §11): each part's closed structure as for a solid or a 
 M, touching contacts tied, supports removed), the joints' beam nodes eliminated by the rigid
 section's rows, (u_P, θ_P) = B⁻¹ C u_S (:func:`crane_fem.coupling.rigid_section.face_rows`,
 the rows the coupled run ties), and K φ = ω² M φ on what is left by SciPy's shift-and-invert
-Lanczos. On one process: under mpiexec every rank computes the same modes on its own."""
+Lanczos; the shapes, both parts' DOFs recovered (T q), to one XDMF file per part. On one
+process: under mpiexec every rank computes the same modes on its own."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
@@ -21,6 +23,7 @@ from crane_fem.coupling.rigid_section import face_rows
 from crane_fem.errors import CraneFemError, ScenarioError
 from crane_fem.modes.eigen import RIGID_TOL, ModalBasis
 from crane_fem.modes.operators import ClosedStructure, assemble_closed_structure
+from crane_fem.modes.xdmf import write_mode_shapes
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.scenario import Scenario
 
@@ -86,10 +89,15 @@ def _joint_elimination(
     return sp.vstack([T_s, T_keep + T_slave]).tocsr(), keep_b
 
 
-def solve_mixed_modes(sc: Scenario, mesh: MeshStage, n: int) -> MixedModes:
+def solve_mixed_modes(
+    sc: Scenario, mesh: MeshStage, n: int, shapes: Path | None = None
+) -> MixedModes:
     """The ``n`` lowest modes of a mixed model (``mesh``: its solids' stage, with its beams'
     stage as ``mesh.beams``, built on one process). Mass-normalised shapes, each signed so
-    that its largest participation factor is positive, as :func:`solve_modes`.
+    that its largest participation factor is positive, as :func:`solve_modes`. With
+    ``shapes`` (a directory), their shapes over both parts (the joints' beam nodes recovered
+    from their faces) are written as :func:`write_mode_shapes` writes a solid's and a
+    frame's: ``modes.xdmf`` on the tetrahedra, ``modes_beams.xdmf`` on the lines.
 
     Raises:
         ScenarioError: ``n`` above the free DOFs; the supports leave a rigid mode; a joint's
@@ -104,22 +112,50 @@ def solve_mixed_modes(sc: Scenario, mesh: MeshStage, n: int) -> MixedModes:
     try:
         st_s, st_b = parts
         T, keep_b = _joint_elimination(sc, mesh, st_s, st_b)
-        K0 = sp.block_diag([_csr(st_s.K), _csr(st_b.K)])
-        M0 = sp.block_diag([_csr(st_s.M), _csr(st_b.M)])
-        K = (T.T @ K0 @ T).tocsc()
-        M = (T.T @ M0 @ T).tocsc()
-        K, M = 0.5 * (K + K.T), 0.5 * (M + M.T)
-        # The translations' influence vectors: all the solids' DOFs of a direction, the beams'
-        # translation DOFs (a rigid translation meets the joints: it lies in T's range).
-        n_s = st_s.free.size
-        R = np.zeros((3, T.shape[1]))
-        for d in range(3):
-            R[d, :n_s] = st_s.free % 3 == d
-            R[d, n_s:] = st_b.free[keep_b] % 6 == d
+        basis, n_q = _eigen(st_s, st_b, T, keep_b, n)
+        if shapes is not None:
+            # Each part's free DOFs, the joints' beam nodes recovered: T q.
+            full = np.asarray(T @ basis.shapes.T).T
+            n_s = st_s.free.size
+            for st, name, cols in (
+                (st_s, "modes.xdmf", slice(0, n_s)),
+                (st_b, "modes_beams.xdmf", slice(n_s, None)),
+            ):
+                part = ModalBasis(
+                    basis.omega,
+                    np.ascontiguousarray(full[:, cols]),
+                    basis.participation,
+                    basis.total_mass,
+                )
+                write_mode_shapes(shapes / name, st, part)
         mass_total = sum(st.mass_total for st in parts)
     finally:
         for st in parts:
             st.destroy()
+    return MixedModes(basis, n_q, float(mass_total))
+
+
+def _eigen(
+    st_s: ClosedStructure,
+    st_b: ClosedStructure,
+    T: sp.csr_matrix,
+    keep_b: npt.NDArray[np.int64],
+    n: int,
+) -> tuple[ModalBasis, int]:
+    """The ``n`` lowest modes of T^T diag(K_S, K_b) T q = ω² T^T diag(M_S, M_b) T q, and the
+    kept DOFs' count."""
+    K0 = sp.block_diag([_csr(st_s.K), _csr(st_b.K)])
+    M0 = sp.block_diag([_csr(st_s.M), _csr(st_b.M)])
+    K = (T.T @ K0 @ T).tocsc()
+    M = (T.T @ M0 @ T).tocsc()
+    K, M = 0.5 * (K + K.T), 0.5 * (M + M.T)
+    # The translations' influence vectors: all the solids' DOFs of a direction, the beams'
+    # translation DOFs (a rigid translation meets the joints: it lies in T's range).
+    n_s = st_s.free.size
+    R = np.zeros((3, T.shape[1]))
+    for d in range(3):
+        R[d, :n_s] = st_s.free % 3 == d
+        R[d, n_s:] = st_b.free[keep_b] % 6 == d
     n_q = K.shape[0]
     if not 1 <= n <= n_q - 1:
         raise ScenarioError(f"modes: --n {n} is more than the {n_q} free DOFs allow")
@@ -150,5 +186,4 @@ def solve_mixed_modes(sc: Scenario, mesh: MeshStage, n: int) -> MixedModes:
         if sign < 0:
             phi[k] *= -1.0
             participation[k] *= -1.0
-    basis = ModalBasis(np.sqrt(lam), phi, participation, total)
-    return MixedModes(basis, n_q, float(mass_total))
+    return ModalBasis(np.sqrt(lam), phi, participation, total), n_q

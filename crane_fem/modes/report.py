@@ -70,7 +70,7 @@ class ModesReport:
     estimate: SpectralEstimate | None
     comparison: list[ComparisonRow]
     run: Path | None = None
-    #: A mixed model's (crane_fem.modes.mixed): no shapes file, no estimate.
+    #: A mixed model's (crane_fem.modes.mixed): two shapes files, no estimate.
     mixed: bool = False
 
 
@@ -176,8 +176,8 @@ def report_dict(rep: ModesReport) -> dict[str, Any]:
         "degree": rep.degree,
         "mass_matrix": "consistent",
         "shapes": (
-            "mass-normalised (phi^T M phi = 1), not written for a mixed model (solids and "
-            "beams through their joints: the joints' beam nodes eliminated)"
+            "mass-normalised (phi^T M phi = 1), modes.xdmf (the solids) and modes_beams.xdmf "
+            "(the beams; the joints' beam nodes recovered from their faces)"
             if rep.mixed
             else "mass-normalised (phi^T M phi = 1), modes.xdmf"
         ),
@@ -260,7 +260,7 @@ def report_lines(rep: ModesReport) -> list[str]:
     if rep.mixed:
         lines.append(
             "a mixed model (solids and beams through their joints, the joints' beam nodes "
-            "eliminated): no mode shapes file, no response-spectrum estimate (not built)"
+            "eliminated): no response-spectrum estimate (not built)"
         )
         return lines
     if est is None:
