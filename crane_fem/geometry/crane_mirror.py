@@ -7,6 +7,8 @@ into the whole crane.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import gmsh
 import numpy as np
 import numpy.typing as npt
@@ -14,10 +16,69 @@ import numpy.typing as npt
 from crane_fem.geometry.crane_parameters import CraneGeometry
 from crane_fem.geometry.groups import CRANE_FLANGE_SURFACES, CRANE_SURFACES, CRANE_VOLUMES
 
-__all__ = ["IDENTITY", "mirror_mesh"]
+__all__ = ["IDENTITY", "mirror_mesh", "reflect", "reflect_region", "snap_to_planes"]
 
 #: The 4×4 affine identity (row-major): the periodic map of coincident wheel/rail patches.
 IDENTITY = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
+
+
+def reflect(
+    p: npt.NDArray[np.float64], planes: list[tuple[int, float]], copy: int
+) -> npt.NDArray[np.float64]:
+    """The points ``p`` (..., 3) reflected in plane b of ``planes`` for each bit b of
+    ``copy``."""
+    q = p.copy()
+    for b, (axis, c) in enumerate(planes):
+        if copy >> b & 1:
+            q[..., axis] = 2.0 * c - q[..., axis]
+    return q + 0.0  # no negative zeros
+
+
+def snap_to_planes(
+    xyz: npt.NDArray[np.float64], planes: list[tuple[int, float]]
+) -> npt.NDArray[np.int64]:
+    """Put the points within round-off of a mirror plane on it (in place); per point, bit b
+    set when it lies on plane b."""
+    on_plane = np.zeros(xyz.shape[0], dtype=np.int64)
+    for b, (axis, c) in enumerate(planes):
+        hit = np.abs(xyz[:, axis] - c) < 1e-10 * (1.0 + abs(c))
+        xyz[hit, axis] = c
+        on_plane[hit] |= 1 << b
+    return on_plane
+
+
+def reflect_region(
+    xyz: npt.NDArray[np.float64],
+    on_plane: npt.NDArray[np.int64],
+    planes: list[tuple[int, float]],
+    region: dict[tuple[int, str], npt.NDArray[np.int64]],
+    rename: Callable[[str, int], str],
+) -> tuple[npt.NDArray[np.float64], dict[tuple[int, str], list[npt.NDArray[np.int64]]]]:
+    """A meshed region and its images in ``planes``: the points (n, 3) and, per (dim, group
+    name), its simplices over them (0-based), a list of one array per image.
+
+    Image ``copy`` (0 … 2^len(planes) − 1) is reflected in plane b when its bit b is set; a
+    point on a plane (``on_plane``'s bit, :func:`snap_to_planes`) is its own image there, so
+    the images conform along the planes. An odd number of reflections turns a simplex inside
+    out: its second and third nodes are swapped. ``rename(name, copy)`` names a group's
+    image."""
+    n_copies = 1 << len(planes)
+    n = xyz.shape[0]
+
+    # Node (i, copy) is node (i, copy without the planes i lies on): one new node per pair.
+    keys = np.concatenate([np.arange(n) * n_copies + (c & ~on_plane) for c in range(n_copies)])
+    _, first, new = np.unique(keys, return_index=True, return_inverse=True)
+    new = new.reshape(n_copies, n)
+    coords = np.concatenate([reflect(xyz, planes, c) for c in range(n_copies)])[first]
+    groups: dict[tuple[int, str], list[npt.NDArray[np.int64]]] = {}
+    for c in range(n_copies):
+        flip = c.bit_count() % 2 == 1
+        for (dim, name), conn in region.items():
+            img = new[c][conn]
+            if flip:
+                img[:, [1, 2]] = img[:, [2, 1]]
+            groups.setdefault((dim, rename(name, c)), []).append(img)
+    return coords, groups
 
 
 def mirror_mesh(
@@ -39,11 +100,7 @@ def mirror_mesh(
     xyz = xyz.reshape(-1, 3).copy()
     index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
     index[tags] = np.arange(tags.size)
-    on_plane = np.zeros(tags.size, dtype=np.int64)  # bit b: the node lies on plane b
-    for b, (axis, c) in enumerate(planes):
-        hit = np.abs(xyz[:, axis] - c) < 1e-10 * (1.0 + abs(c))
-        xyz[hit, axis] = c
-        on_plane[hit] |= 1 << b
+    on_plane = snap_to_planes(xyz, planes)
 
     def cells(dim: int, entities: list[int]) -> npt.NDArray[np.int64]:
         etype, nper = (4, 4) if dim == 3 else (2, 3)
@@ -54,37 +111,15 @@ def mirror_mesh(
     region |= {(2, n): cells(2, e) for n, e in surf_groups.items()}
     centres = geo.wheel_centres()
 
-    def reflect(p: npt.NDArray[np.float64], copy: int) -> npt.NDArray[np.float64]:
-        q = p.copy()
-        for b, (axis, c) in enumerate(planes):
-            if copy >> b & 1:
-                q[..., axis] = 2.0 * c - q[..., axis]
-        return q + 0.0  # no negative zeros
-
     def rename(name: str, copy: int) -> str:
         stem, _, k = name.rpartition("_")
         if not k.isdigit():
             return name
-        image = reflect(np.array([*centres[int(k) - 1], 0.0]), copy)[:2]
+        image = reflect(np.array([*centres[int(k) - 1], 0.0]), planes, copy)[:2]
         (hit,) = [j for j, c in enumerate(centres) if np.allclose(c, image, atol=1e-9)]
         return f"{stem}_{hit + 1}"
 
-    # Node (i, copy) is node (i, copy without the planes i lies on): one new node per pair.
-    n_copies = 1 << len(planes)
-    keys = np.concatenate(
-        [np.arange(tags.size) * n_copies + (c & ~on_plane) for c in range(n_copies)]
-    )
-    uniq, first, new = np.unique(keys, return_index=True, return_inverse=True)
-    new = new.reshape(n_copies, tags.size)
-    coords = np.concatenate([reflect(xyz, c) for c in range(n_copies)])[first]
-    groups: dict[tuple[int, str], list[npt.NDArray[np.int64]]] = {}
-    for c in range(n_copies):
-        flip = c.bit_count() % 2 == 1  # a reflection turns the elements inside out
-        for (dim, name), conn in region.items():
-            img = new[c][conn]
-            if flip:
-                img[:, [1, 2]] = img[:, [2, 1]]
-            groups.setdefault((dim, rename(name, c)), []).append(img)
+    coords, groups = reflect_region(xyz, on_plane, planes, region, rename)
 
     gmsh.model.remove()
     gmsh.model.add("crane")
@@ -99,7 +134,7 @@ def mirror_mesh(
     # these entities: it pairs the nodes an entity owns, and a node has one owner); every
     # other node, the flange patches' too (paired by coordinates, mesh_info), to the first
     # volume.
-    owner = np.zeros(uniq.size, dtype=np.int64)
+    owner = np.zeros(coords.shape[0], dtype=np.int64)
     for (dim, name), ent in entity.items():
         if dim == 2 and name in CRANE_SURFACES and "patch" in name:
             owner[np.concatenate(groups[dim, name]).ravel()] = ent

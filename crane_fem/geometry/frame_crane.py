@@ -53,7 +53,7 @@ __all__ = [
 
 
 #: Changes with the drawing below, so that a mesh cached by an older one is not reused.
-LAYOUT_VERSION = 4
+LAYOUT_VERSION = 5
 
 
 @dataclass(frozen=True)
@@ -67,8 +67,8 @@ class FrameCraneLayout:
     wheels: list[tuple[float, float]]
     girder: dict[str, Any]
     trolley_density_factor: float
-    #: ``wheel_zones = "solid"``: the function drawing the solid zones in the sketch's gmsh
-    #: model (FrameSketch.write), else None.
+    #: ``wheel_zones = "solid"``: the function adding the solid zones' meshes to the
+    #: sketch's gmsh model (FrameSketch.write), else None.
     solids: Callable[[], None] | None = None
 
 
@@ -193,86 +193,136 @@ def frame_crane_layout(m: Any) -> FrameCraneLayout:
 def _solid_zones(
     m: Any, xs: tuple[float, float], wheels: list[tuple[float, float]], seg: tuple[float, float]
 ) -> Callable[[], None]:
-    """The solid zones' drawing for FrameSketch.write: per girder k its segment [seg] with
-    its rail (volume ``zone_k``; the rail in three conforming parts along y, the middle one's
-    top, ``rail_top_k``, the wheels' contact surface, off the end faces), its end faces
-    ``zone_k_a``/``_b`` (girder and rail: the joints' faces); each wheel a block on the rail
-    (``wheel_k``; faces ``wheel_bottom_k``, ``wheel_top_k``). Elements of ``solid_size`` in
-    the rails and wheels, ``fine`` in the girders' webs."""
+    """The solid zones for FrameSketch.write: per girder k its segment [seg] with its rail
+    (volume ``zone_k``; the rail in parts along y, the middle ones' top, ``rail_top_k``, the
+    wheels' contact surface, off the end faces), its end faces ``zone_k_a``/``_b`` (girder
+    and rail: the joints' faces); each wheel a block on the rail (``wheel_k``; faces
+    ``wheel_bottom_k``, ``wheel_top_k``). Elements of ``solid_size`` in the rails and the
+    wheels, ``fine`` in the girders' webs.
+
+    One quarter is meshed — girder 2's half segment on the wheel-3 side and wheel 3 — and
+    reflected in the planes x = 0 and y = the trolley's centre into the four (the zones are
+    symmetric in both whatever the trolley's position): the zones' meshes are mirror images,
+    so a symmetric load loads the four wheels alike (an unstructured mesh of each would rock
+    the trolley on its own, as the mock-up's would: crane_fem.geometry.crane_mirror)."""
+    from crane_fem.geometry.crane_mirror import reflect_region, snap_to_planes
+
     hc, hg, hr = m.end_carriage_height, m.girder_height, m.rail_height
     rail_top = hc + hg + hr
     y_lo = min(y for _, y in wheels) - 0.5 * m.wheel_length - m.zone_margin
-    y_hi = max(y for _, y in wheels) + 0.5 * m.wheel_length + m.zone_margin
+    yc = 0.5 * (seg[0] + seg[1])
+    x, (xw, yw) = xs[1], wheels[2]
+    planes = [(0, 0.0), (1, yc)]
 
-    def draw() -> None:
+    def quarter() -> dict[tuple[int, str], Any]:
+        """Mesh the quarter in its own gmsh model: its nodes and, per group, its simplices."""
         import gmsh
+        import numpy as np
 
         occ = gmsh.model.occ
-        zones: list[list[int]] = []
-        for x in xs:
-            girder = occ.addBox(
-                x - 0.5 * m.girder_width, seg[0], hc, m.girder_width, seg[1] - seg[0], hg
-            )
-            rails = [
-                occ.addBox(x - 0.5 * m.rail_width, a, hc + hg, m.rail_width, b - a, hr)
-                for a, b in itertools.pairwise((seg[0], y_lo, y_hi, seg[1]))
-            ]
-            pieces, _ = occ.fragment([(3, girder)], [(3, r) for r in rails])
-            zones.append([t for _, t in pieces])
-        blocks = [
-            occ.addBox(
-                x - 0.5 * m.wheel_width,
-                y - 0.5 * m.wheel_length,
-                rail_top,
-                m.wheel_width,
-                m.wheel_length,
-                m.wheel_height,
-            )
-            for x, y in wheels
+        girder = occ.addBox(x - 0.5 * m.girder_width, seg[0], hc, m.girder_width, yc - seg[0], hg)
+        rails = [
+            occ.addBox(x - 0.5 * m.rail_width, a, hc + hg, m.rail_width, b - a, hr)
+            for a, b in itertools.pairwise((seg[0], y_lo, yc))
         ]
+        pieces, _ = occ.fragment([(3, girder)], [(3, r) for r in rails])
+        zone = [t for _, t in pieces]
+        block = occ.addBox(
+            xw - 0.5 * m.wheel_width,
+            yw - 0.5 * m.wheel_length,
+            rail_top,
+            m.wheel_width,
+            m.wheel_length,
+            m.wheel_height,
+        )
         occ.synchronize()
 
-        def faces(
-            vols: list[int], axis: int, value: float, within: tuple[float, float] | None = None
-        ) -> list[int]:
+        def faces(vols: list[int], axis: int, value: float, lo: float | None = None) -> list[int]:
             out = set()
             for v in vols:
                 for d, t in gmsh.model.getBoundary([(3, v)], oriented=False):
                     b = gmsh.model.getBoundingBox(d, abs(t))
                     if abs(b[axis] - value) > 1e-6 or abs(b[axis + 3] - value) > 1e-6:
                         continue
-                    if within is not None and not (
-                        within[0] - 1e-6 <= b[1] and b[4] <= within[1] + 1e-6
-                    ):
+                    if lo is not None and b[1] < lo - 1e-6:
                         continue
                     out.add(abs(t))
             return sorted(out)
 
-        for k, vols in enumerate(zones, start=1):
-            gmsh.model.addPhysicalGroup(3, vols, name=f"zone_{k}")
-            gmsh.model.addPhysicalGroup(2, faces(vols, 1, seg[0]), name=f"zone_{k}_a")
-            gmsh.model.addPhysicalGroup(2, faces(vols, 1, seg[1]), name=f"zone_{k}_b")
-            gmsh.model.addPhysicalGroup(
-                2, faces(vols, 2, rail_top, (y_lo, y_hi)), name=f"rail_top_{k}"
-            )
-        for k, b in enumerate(blocks, start=1):
-            gmsh.model.addPhysicalGroup(3, [b], name=f"wheel_{k}")
-            gmsh.model.addPhysicalGroup(2, faces([b], 2, rail_top), name=f"wheel_bottom_{k}")
-            gmsh.model.addPhysicalGroup(
-                2, faces([b], 2, rail_top + m.wheel_height), name=f"wheel_top_{k}"
-            )
-        # Sizes: solid_size in the rails and the wheels, fine below (the girders' bodies);
-        # the members keep their own (transfinite).
         top = hc + hg - 1e-9
 
-        def size(dim: int, tag: int, x: float, y: float, z: float, lc: float) -> float:
-            if seg[0] - 1e-9 <= y <= seg[1] + 1e-9 and any(
-                abs(x - xg) <= m.girder_width for xg in xs
-            ):
-                return min(lc, m.solid_size if z >= top else m.fine)
-            return lc
+        def size(dim: int, tag: int, px: float, py: float, pz: float, lc: float) -> float:
+            return min(lc, m.solid_size if pz >= top else m.fine)
 
         gmsh.model.mesh.setSizeCallback(size)
+        gmsh.model.mesh.generate(3)
+        tags, xyz, _ = gmsh.model.mesh.getNodes()
+        index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
+        index[tags.astype(np.int64)] = np.arange(tags.size)
+
+        def cells(dim: int, entities: list[int]) -> Any:
+            etype, nper = (4, 4) if dim == 3 else (2, 3)
+            conn = [gmsh.model.mesh.getElementsByType(etype, e)[1] for e in entities]
+            return index[np.concatenate(conn).astype(np.int64)].reshape(-1, nper)
+
+        return {
+            (0, ""): xyz.reshape(-1, 3).copy(),
+            (3, "zone_2"): cells(3, zone),
+            (2, "zone_2_a"): cells(2, faces(zone, 1, seg[0])),
+            (2, "rail_top_2"): cells(2, faces(zone, 2, rail_top, y_lo)),
+            (3, "wheel_3"): cells(3, [block]),
+            (2, "wheel_bottom_3"): cells(2, faces([block], 2, rail_top)),
+            (2, "wheel_top_3"): cells(2, faces([block], 2, rail_top + m.wheel_height)),
+        }
+
+    def rename(name: str, copy: int) -> str:
+        """The image's group: x = 0 swaps girder 2 (wheels 3, 4) for girder 1 (wheels 1, 2),
+        the trolley's centre plane the wheel pair's two (3 ↔ 4, 1 ↔ 2) and the ends a ↔ b."""
+        in_x, in_y = copy & 1, copy >> 1 & 1
+        if name.startswith("zone_2_a"):
+            return f"zone_{2 - in_x}_{'b' if in_y else 'a'}"
+        if name.startswith(("zone_", "rail_top_")):
+            return f"{name[:-1]}{2 - in_x}"
+        return f"{name[:-1]}{1 + 2 * (1 - in_x) + in_y}"
+
+    def draw() -> None:
+        import gmsh
+        import numpy as np
+
+        frame = gmsh.model.getCurrent()
+        gmsh.model.add("zones")
+        region = quarter()
+        gmsh.model.remove()
+        gmsh.model.setCurrent(frame)
+        xyz = region.pop((0, ""))
+        on_plane = snap_to_planes(xyz, planes)
+        coords, groups = reflect_region(xyz, on_plane, planes, region, rename)
+        node0 = int(gmsh.model.mesh.getMaxNodeTag())
+        element = int(gmsh.model.mesh.getMaxElementTag()) + 1
+        volumes = sorted(n for d, n in groups if d == 3)
+        surfaces = sorted(n for d, n in groups if d == 2)
+        entity = {(2, n): gmsh.model.addDiscreteEntity(2) for n in surfaces}
+        # Each volume bounded by its named faces (zone_k: zone_k_a, _b, rail_top_k; wheel_k:
+        # wheel_bottom_k, wheel_top_k): a reader keeping the volumes' closure keeps them.
+        for v in volumes:
+            stem, k = v.rsplit("_", 1)
+            faces = (
+                [f"zone_{k}_a", f"zone_{k}_b", f"rail_top_{k}"]
+                if stem == "zone"
+                else [f"wheel_bottom_{k}", f"wheel_top_{k}"]
+            )
+            entity[3, v] = gmsh.model.addDiscreteEntity(3, -1, [entity[2, f] for f in faces])
+        # Every node to the first volume (a node has one owner; the groups share them).
+        first = entity[3, volumes[0]]
+        ids = np.arange(coords.shape[0]) + node0 + 1
+        gmsh.model.mesh.addNodes(3, first, ids.tolist(), coords.ravel().tolist())
+        for (dim, name), ent in entity.items():
+            conn = np.concatenate(groups[dim, name]) + node0 + 1
+            etype = 4 if dim == 3 else 2
+            tags = list(range(element, element + len(conn)))
+            gmsh.model.mesh.addElementsByType(ent, etype, tags, conn.ravel().tolist())
+            element += len(conn)
+            gmsh.model.addPhysicalGroup(dim, [ent], name=name)
 
     return draw
 

@@ -79,10 +79,10 @@ class FrameSketch:
     def write(self, path: str | Path, solids: Callable[[], None] | None = None) -> Path:
         """Mesh and write the frame (gmsh; not collective: call it on one rank).
 
-        ``solids``: a mixed model's solids, drawn by a function called with gmsh's OpenCASCADE
-        model under way (the members drawn, apart from it: their points are not the solids');
-        it adds the volumes, their named groups and their sizes, and the whole is meshed in
-        3D. Without it, the members alone (the built-in kernel, as always)."""
+        ``solids``: a mixed model's solids, added by a function called once the members are
+        meshed, with their model current: it adds the solids' meshes as discrete entities
+        (volumes and their named surface groups, node and element tags past the members'),
+        which are written with the members (the beams' nodes are not the solids')."""
         import gmsh
 
         keys = self._key_points()
@@ -90,8 +90,7 @@ class FrameSketch:
         try:
             gmsh.option.setNumber("General.Terminal", 0)
             gmsh.model.add("frame")
-            geo = gmsh.model.occ if solids is not None else gmsh.model.geo
-            transfinite: list[tuple[int, int]] = []
+            geo = gmsh.model.geo
             tags = [geo.addPoint(*p.tolist()) for p in keys]
 
             def tag_of(p: FloatArray) -> int:
@@ -113,22 +112,16 @@ class FrameSketch:
                     p0, p1 = m.a + s0 * axis, m.a + s1 * axis
                     line = geo.addLine(tag_of(p0), tag_of(p1))
                     n = max(1, round((s1 - s0) * length / m.size))
-                    if solids is None:
-                        gmsh.model.geo.mesh.setTransfiniteCurve(line, n + 1)
-                    else:
-                        transfinite.append((line, n + 1))
+                    geo.mesh.setTransfiniteCurve(line, n + 1)
                     lines.setdefault(m.group, []).append(line)
             geo.synchronize()
-            if solids is not None:
-                solids()
-                gmsh.model.occ.synchronize()
-                for line, n in transfinite:
-                    gmsh.model.mesh.setTransfiniteCurve(line, n)
             for name, ls in lines.items():
                 gmsh.model.addPhysicalGroup(1, ls, name=name)
             for name, ps in self.groups.items():
                 gmsh.model.addPhysicalGroup(0, sorted({tag_of(p) for p in ps}), name=name)
-            gmsh.model.mesh.generate(1 if solids is None else 3)
+            gmsh.model.mesh.generate(1)
+            if solids is not None:
+                solids()
             out = Path(path)
             out.parent.mkdir(parents=True, exist_ok=True)
             gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
