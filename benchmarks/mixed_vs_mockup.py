@@ -1,0 +1,216 @@
+"""The mixed crane (beams + solid wheel zones, demos/frame_crane_solid.toml, coupled) against
+the all-solid mock-up (demos/crane.toml) fully explicit with its conditioning ensemble: every
+quantity of THEORY.md §8 (b) side by side (issue 33's acceptance table).
+
+    .venv/bin/python benchmarks/mixed_vs_mockup.py [--out DIR] [--report FILE]
+        [--size S] [--reuse]
+
+Runs (subprocesses, OMP_NUM_THREADS=1):
+
+* ``crane-fem mesh demos/crane.toml --set model.size=S`` (default 0.04 m: the committed mesh
+  locks in bending, its frequencies 1.22–1.65× the converged solid's,
+  benchmarks/out/mockup_convergence.md; at 0.04 m the first flight and the peak force have
+  converged to ≤ 1.5 %);
+* the mock-up fully explicit on that mesh (the reference, alone), then its ensemble
+  (record × 0.995, × 1.005, Δt × ½: ``crane_fem.study.run_ensemble_members``, the study's and
+  ``crane-fem bench ensemble``'s, two at a time on a local dask cluster);
+* the mixed crane as its scene runs it (gc-mean, the beams Newmark, the solid zones
+  CD-Lagrange) and the frame crane fully explicit (demos/frame_crane.toml, for what the solid
+  zones add).
+
+The table judges each quantity by THEORY.md §8 (b): |run − reference| against max(its
+tolerance, the ensemble's spread) (``crane_fem.tolerances``: ``judge_runs``,
+``with_spread``). Quantities one model has and the other has not (the beams' stress by
+group, the floor spectra at different points) are not judged; the bridge's peak von Mises
+is, from the beam models' groups (:func:`_bridge_stress`). ``--reuse`` reads the runs
+already in DIR.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+EXE = Path(sys.executable).parent / "crane-fem"
+SOLID = ROOT / "demos" / "crane.toml"
+MIXED = ROOT / "demos" / "frame_crane_solid.toml"
+FRAME = ROOT / "demos" / "frame_crane.toml"
+ENV = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+
+
+def _call(cmd: list[str]) -> float:
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, capture_output=True, text=True, check=False, env=ENV)
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd)} failed:\n{proc.stderr[-2000:]}")
+    return time.perf_counter() - t0
+
+
+def _run(scene: Path, d: Path, settings: dict[str, Any], reuse: bool) -> dict[str, Any]:
+    """The run's summary (its process's wall time under ``_process_s``)."""
+    from crane_fem.study.cases import cli_arguments
+
+    if not (reuse and (d / "summary.json").exists()):
+        cmd = [str(EXE), "run", str(scene), "-o", str(d), "--no-progress"]
+        elapsed = _call([*cmd, *cli_arguments(settings)])
+        (d / "process.json").write_text(json.dumps({"elapsed_s": elapsed}))
+    s = json.loads((d / "summary.json").read_text())
+    s["_process_s"] = json.loads((d / "process.json").read_text())["elapsed_s"]
+    return s
+
+
+def _fmt(value: float, unit: str) -> str:
+    if unit == "N":
+        return f"{value / 1e3:.4g} kN"
+    if unit == "m":
+        return f"{value * 1e3:.4g} mm"
+    if unit == "s":
+        return f"{value * 1e3:.4g} ms"
+    if unit == "Pa":
+        return f"{value / 1e6:.4g} MPa"
+    return f"{value:.4g} {unit}"
+
+
+#: The beam models' groups that make the mock-up's bridge (girders, rails, end carriages):
+#: the girders' beams, the segments under the wheels (solid zones in the mixed crane, beam
+#: zones in the frame) and the end carriages; the trolley, its wheels and stubs, the hook and
+#: the rope links are not the bridge.
+BRIDGE = ("girder_", "zone_", "end_carriage_")
+
+
+def _bridge_stress(run: dict[str, Any]) -> None:
+    """Give a beam model's summary the mock-up's bridge stress keys from its groups' peaks:
+    the bridge's (max over :data:`BRIDGE`'s groups) and the girders' (``girder 1``, the
+    mock-up's governing part: max over both girders and their zones — the mock-up's two
+    girders agree within 1e-11). A beam's is its extreme fibres' von Mises, a solid's its
+    largest cell value: the same sign-off quantity, not the same estimate."""
+    groups = {k: v["peak_Pa"] for k, v in run.get("peak_von_mises_by_group", {}).items()}
+    bridge = [v for k, v in groups.items() if k.startswith(BRIDGE)]
+    girders = [v for k, v in groups.items() if k.startswith(("girder_", "zone_"))]
+    if bridge:
+        run["peak_bridge_von_mises_Pa"] = max(bridge)
+        run["peak_bridge_von_mises_by_part_Pa"] = {"girder 1": max(girders)}
+
+
+def main() -> None:
+    import crane_fem  # noqa: F401  (MPI before the study's modules)
+    from crane_fem.bench.common import explicit_settings
+    from crane_fem.study import run_ensemble_members
+    from crane_fem.tolerances import judge_runs, with_spread
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "out" / "mixed_vs_mockup")
+    ap.add_argument(
+        "--report", type=Path, default=ROOT / "benchmarks" / "out" / "mixed_vs_mockup.md"
+    )
+    ap.add_argument("--size", default="0.04")
+    ap.add_argument("--reuse", action="store_true")
+    args = ap.parse_args()
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    started = time.strftime("%Y-%m-%d %H:%M:%S")
+
+    mesh = out / f"crane_{args.size}.msh"
+    if not (args.reuse and mesh.exists()):
+        _call([str(EXE), "mesh", str(SOLID), "--set", f"model.size={args.size}", "-o", str(mesh)])
+    base = {"model.mesh": str(mesh), "model.size": float(args.size)}
+    ref_settings = explicit_settings(SOLID, base=base)
+    ref = _run(SOLID, out / "mockup", ref_settings, args.reuse)
+    members_dir = out / "ensemble"
+    sampling = float(ref["sampling_interval_s"])
+    if args.reuse and all(
+        (members_dir / m / "summary.json").exists() for m in ("x0.995", "x1.005", "dt0.5")
+    ):
+        members = {
+            m: json.loads((members_dir / m / "summary.json").read_text())
+            for m in ("x0.995", "x1.005", "dt0.5")
+        }
+    else:
+        t0 = time.perf_counter()
+        done = run_ensemble_members(SOLID, ref_settings, sampling, members_dir)
+        members = {}
+        for label, d, result in done:
+            if result.status != "completed":
+                raise SystemExit(f"ensemble member {label}: {result.status} {result.error}")
+            members[d.name] = json.loads((d / "summary.json").read_text())
+        (members_dir / "process.json").write_text(
+            json.dumps({"elapsed_s": time.perf_counter() - t0})
+        )
+    mixed = _run(MIXED, out / "mixed", {"output.xdmf": False}, args.reuse)
+    frame = _run(
+        FRAME, out / "frame", {"coupling.method": "monolithic", "output.xdmf": False}, args.reuse
+    )
+
+    for run in (mixed, frame):
+        _bridge_stress(run)
+    member_checks = [judge_runs(m, ref) for m in members.values()]
+    rows = []
+    for label, run in (("mixed", mixed), ("frame", frame)):
+        checks = with_spread(judge_runs(run, ref), member_checks)
+        rows.append((label, {(c.quantity, c.where): c for c in checks}))
+    ref_keys = [(c.quantity, c.where) for c in member_checks[0]]
+
+    lines = [
+        "# The mixed crane against the all-solid mock-up: THEORY.md §8 (b), side by side",
+        "",
+        "Command: `.venv/bin/python benchmarks/mixed_vs_mockup.py`"
+        + (f" --size {args.size}" if args.size != "0.04" else ""),
+        "",
+        f"Started {started}"
+        + (" (--reuse: the runs of an earlier start)" if args.reuse else "")
+        + "; serial processes, OMP_NUM_THREADS=1 (the ensemble two at a time). Reference: "
+        f"`demos/crane.toml` fully explicit on a uniform {args.size} m P1 mesh "
+        f"({ref['dofs_explicit'] + ref['dofs_implicit']} DOFs, {ref['_process_s']:.0f} s), its "
+        "ensemble record × 0.995, × 1.005 and Δt × ½. Runs: `demos/frame_crane_solid.toml` as "
+        f"committed (gc-mean m = 20, {mixed['_process_s']:.0f} s) and `demos/frame_crane.toml` "
+        f"fully explicit ({frame['_process_s']:.0f} s). The vertical record, 0.2 s.",
+        "",
+        "A quantity passes when |run − mock-up| ≤ max(tolerance, spread); ratio = |run − "
+        "mock-up| / that bound; **bold**: beyond it. Spread: the largest |member − mock-up| of the "
+        "ensemble (beyond-conditioning quantities: spread > tolerance).",
+        "",
+        "| quantity | where | mock-up | spread | tolerance | mixed | ratio | frame | ratio |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    counts = {label: [0, 0] for label, _ in rows}
+    beyond = 0
+    for key in ref_keys:
+        c0 = rows[0][1].get(key)
+        if c0 is None:
+            continue
+        if c0.beyond_conditioning:
+            beyond += 1
+        cells = []
+        for label, by in rows:
+            c = by[key]
+            if c.reference == 0.0 and c.value == 0.0:
+                cells += ["0", "—"]
+                continue
+            counts[label][0] += 1
+            ok = c.ok
+            counts[label][1] += 0 if ok else 1
+            r = f"{c.ratio:.2f}"
+            cells += [_fmt(c.value, c.unit), r if ok else f"**{r}**"]
+        lines.append(
+            f"| {c0.quantity} | {c0.where} | {_fmt(c0.reference, c0.unit)} | "
+            f"{_fmt(c0.spread, c0.unit)} | {_fmt(c0.tolerance, c0.unit)} | "
+            + " | ".join(cells)
+            + " |"
+        )
+    lines += [""]
+    for label, (n, bad) in counts.items():
+        lines.append(f"- {label}: {n - bad} of {n} quantities within max(tolerance, spread).")
+    lines.append(f"- Beyond the mock-up's conditioning (spread > tolerance): {beyond}.")
+    (args.report).write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
