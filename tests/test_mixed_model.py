@@ -438,3 +438,40 @@ def test_modes_of_the_mixed_bar(shared_tmp: Path, capsys: pytest.CaptureFixture[
         code = main(["modes", str(path), "--out", str(shared_tmp / "no"), *extra])
         line = error_line(code, capsys)
         assert line.startswith("crane-fem: error: modes") and named in line, line
+
+
+def test_response_spectrum_of_the_mixed_bar(
+    shared_tmp: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The mixed cantilever shaken along z (El Centro vertical, 1 s): the response-spectrum
+    estimate through the joints (crane_fem.modes.mixed._estimate) against equilibrium, which
+    holds exactly whatever the mesh — the clamp's static force is the bar's weight and its
+    moment the weight × 3.5 m (the centre of mass), within 1e-8; the SRSS of the modes' clamp
+    forces along z is sqrt(Σ (m_eff,i Sa_i)²), each mode's base shear Γ_i L_i Sa_i, within
+    1e-8 (the modes' forces recovered on the beams from shapes expanded through the
+    joints); measured 6.5e-11, 5.1e-11 and 1.3e-11; the same modes.json on every rank."""
+    import math
+
+    mesh = write_bar(shared_tmp / "bar_spectrum.msh")
+    loading = (
+        "[loading]\ngravity = [0.0, 0.0, -9.81]\n[loading.ground_motion]\n"
+        'record = "el_centro_1940_up"\ndirection = [0.0, 0.0, 1.0]\n'
+    )
+    text = scenario(mesh, loading=loading).replace("end = 0.01", "end = 1.0")
+    path = write(shared_tmp / "cantilever_spectrum.toml", text)
+    out = shared_tmp / "modes_spectrum"
+    assert main(["modes", str(path), "--n", "14", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out  # (rank 0 prints)
+    assert COMM.rank or "response spectrum of the input over [0, 1] s" in printed, printed
+    doc = json.loads((out / "modes.json").read_text())
+    rs = doc["response_spectrum"]
+    (support,) = rs["supports"].values()
+    weight = RHO * 7.0 * SIDE * SIDE * 9.81
+    assert abs(support["static_N"][2] - weight) <= 1e-8 * weight, support["static_N"]
+    moment = math.hypot(*support["static_moment_Nm"])
+    assert abs(moment - 3.5 * weight) <= 1e-8 * 3.5 * weight, support["static_moment_Nm"]
+    base = [m["effective_mass_kg"]["z"] * m["sa_m_s2"]["z"] for m in doc["modes"]]
+    expected = math.sqrt(sum(b * b for b in base))
+    assert abs(support["srss_N"][2] - expected) <= 1e-8 * expected, (support, expected)
+    mine = (out / "modes.json").read_text()
+    assert all(t == mine for t in COMM.allgather(mine))

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from mpi4py import MPI
@@ -92,7 +93,7 @@ def run_modes(
         window = min(reached, float(summary.get("time_end_s", reached)))
     sc = concrete_scenario(sc, comm)
     if isinstance(sc.model, GmshModel) and sc.model.mixed:
-        return _mixed(sc, comm, n, Path(out), degree, damping, compare)
+        return _mixed(sc, comm, n, Path(out), degree, damping, window, summary, compare)
     mesh = build_mesh(sc, comm)
     if mesh.fixed_vertices.size == 0 and mesh.pinned_vertices.size == 0:
         raise ScenarioError("modes: the structure has no support (it has rigid modes)")
@@ -137,33 +138,40 @@ def _mixed(
     out: Path,
     degree: int,
     damping: float | None,
+    window: float,
+    summary: dict[str, Any] | None,
     compare: Path | None,
 ) -> ModesReport:
-    """A mixed model's modes (crane_fem.modes.mixed), the same on every rank (each computes
-    them on its own: MPI.COMM_SELF); modes.json and rank 0's shapes files (modes.xdmf on
-    the solids, modes_beams.xdmf on the beams), no response-spectrum estimate (collective:
-    the ranks agree on an error)."""
+    """A mixed model's modes and response-spectrum estimate (crane_fem.modes.mixed), the same
+    on every rank (each computes them on its own: MPI.COMM_SELF); modes.json and rank 0's
+    shapes files (modes.xdmf on the solids, modes_beams.xdmf on the beams) (collective: the
+    ranks agree on an error)."""
     from crane_fem.pipeline import build_mesh
 
     if degree != 1:
         raise ScenarioError(f"modes: --degree {degree} is for solids; a mixed model is P1")
-    if compare is not None:
-        raise ScenarioError(
-            "modes --compare: a mixed model's response-spectrum estimate is not built; its "
-            "modes are (drop --compare)"
-        )
     error, res = None, None
     try:
         shapes = out if comm.rank == 0 else None
-        res = solve_mixed_modes(sc, build_mesh(sc, MPI.COMM_SELF), n, shapes)
+        res = solve_mixed_modes(
+            sc, build_mesh(sc, MPI.COMM_SELF), n, shapes, damping=damping, window=window
+        )
     except ScenarioError as exc:
         error = str(exc)
     _agree(comm, error)
     assert res is not None
-    mat = sc.material[0] if isinstance(sc.material, list) else sc.material
-    zeta = modal_damping(res.basis.omega, mat.rayleigh_coefficients, damping)
+    rows = compare_with_run(res.estimate, summary) if res.estimate is not None and summary else []
     report = ModesReport(
-        sc.name, 1, res.free_dofs, res.mass_total, res.basis, zeta, None, [], mixed=True
+        sc.name,
+        1,
+        res.free_dofs,
+        res.mass_total,
+        res.basis,
+        res.damping,
+        res.estimate,
+        rows,
+        compare,
+        mixed=True,
     )
     if comm.rank == 0:
         out.mkdir(parents=True, exist_ok=True)

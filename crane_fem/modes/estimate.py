@@ -21,7 +21,13 @@ from crane_fem.modes.spectral import (
 )
 from crane_fem.scenario import Scenario
 
-__all__ = ["Envelope", "SpectralEstimate", "ground_history", "spectral_estimate"]
+__all__ = [
+    "Envelope",
+    "SpectralEstimate",
+    "combine_estimate",
+    "ground_history",
+    "spectral_estimate",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -143,8 +149,6 @@ def spectral_estimate(
         window: the end of the record's window, s.
     """
     t, ground = ground_history(sc, window)
-    omega = basis.omega
-    sa = spectral_accelerations(t, ground, omega, damping)
     zpa = np.max(np.abs(ground), axis=1) if t.size else np.zeros(3)
     recovery = ForceRecovery(st)
     solver = StiffnessSolver(st)
@@ -153,20 +157,46 @@ def spectral_estimate(
         static = recovery(solver.solve(st.gravity_load), body=st.gravity_clamped)
         # Missing mass: the rigid response of what the modes leave out, per unit ZPA.
         mr = rigid_inertia(st)
-        res_s = np.zeros((recovery.n_faces, 3))
-        res_w = np.zeros(recovery.n_wheels)
-        res_m = np.zeros(static.moment.shape[1:])
+        residual: list[Forces | None] = []
         for d in range(3):
             if zpa[d] == 0.0:
+                residual.append(None)
                 continue
-            u = solver.solve(mr[d]) - (basis.gamma[:, d] / omega**2) @ basis.shapes
-            f = recovery(zpa[d] * u)
-            res_s += f.support[0] ** 2
-            res_w += f.wheel[0] ** 2
-            res_m += f.moment[0] ** 2
+            u = solver.solve(mr[d]) - (basis.gamma[:, d] / basis.omega**2) @ basis.shapes
+            residual.append(recovery(zpa[d] * u))
+        centres = recovery.centres
     finally:
         solver.destroy()
         recovery.destroy()
+    return combine_estimate(t, ground, basis, damping, window, modal, static, residual, centres)
+
+
+def combine_estimate(
+    t: FloatArray,
+    ground: FloatArray,
+    basis: ModalBasis,
+    damping: FloatArray,
+    window: float,
+    modal: Forces,
+    static: Forces,
+    residual: list[Forces | None],
+    centres: FloatArray,
+) -> SpectralEstimate:
+    """The estimate from the forces of a structure's modes (``modal``: one row per mode), of
+    gravity (``static``) and of the missing mass per ground direction (``residual[d]``, at
+    its ZPA; None where that component is zero), the ground history (t, a) of
+    :func:`ground_history` (not collective)."""
+    omega = basis.omega
+    sa = spectral_accelerations(t, ground, omega, damping)
+    zpa = np.max(np.abs(ground), axis=1) if t.size else np.zeros(3)
+    res_s = np.zeros(static.support.shape[1:])
+    res_w = np.zeros(static.wheel.shape[1:])
+    res_m = np.zeros(static.moment.shape[1:])
+    for f in residual:
+        if f is not None:
+            res_s += f.support[0] ** 2
+            res_w += f.wheel[0] ** 2
+            res_m += f.moment[0] ** 2
     factor = basis.gamma * sa / (omega**2)[:, None]
     rho = cqc_correlation(omega, damping)
     srss = _combine(modal, factor, rho, "srss")
@@ -180,5 +210,5 @@ def spectral_estimate(
         srss=srss,
         cqc=cqc,
         residual=Envelope(np.sqrt(res_s), np.sqrt(res_w), np.sqrt(res_m)),
-        support_centres=recovery.centres,
+        support_centres=centres,
     )

@@ -22,7 +22,10 @@ from petsc4py import PETSc
 from crane_fem.coupling.rigid_section import face_rows
 from crane_fem.errors import CraneFemError, ScenarioError
 from crane_fem.modes.eigen import RIGID_TOL, ModalBasis
+from crane_fem.modes.estimate import SpectralEstimate, combine_estimate, ground_history
+from crane_fem.modes.forces import ForceRecovery, Forces
 from crane_fem.modes.operators import ClosedStructure, assemble_closed_structure
+from crane_fem.modes.spectral import modal_damping
 from crane_fem.modes.xdmf import write_mode_shapes
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.scenario import Scenario
@@ -36,11 +39,16 @@ FloatArray = npt.NDArray[np.float64]
 class MixedModes:
     """The lowest modes of a mixed model: its :class:`ModalBasis` (shapes over the kept
     DOFs: the solids' free DOFs, then the beams' free DOFs but the joints' nodes), the kept
-    DOFs' count and the whole structure's mass (kg)."""
+    DOFs' count, the whole structure's mass (kg), each mode's damping and the
+    response-spectrum estimate."""
 
     basis: ModalBasis
     free_dofs: int
     mass_total: float
+    #: ζ_i of each mode (crane_fem.modes.spectral.modal_damping).
+    damping: FloatArray
+    #: The response-spectrum estimate, or None (no ground motion, or no window asked).
+    estimate: SpectralEstimate | None = None
 
 
 def _csr(A: PETSc.Mat) -> sp.csr_matrix:
@@ -90,14 +98,22 @@ def _joint_elimination(
 
 
 def solve_mixed_modes(
-    sc: Scenario, mesh: MeshStage, n: int, shapes: Path | None = None
+    sc: Scenario,
+    mesh: MeshStage,
+    n: int,
+    shapes: Path | None = None,
+    damping: float | None = None,
+    window: float | None = None,
 ) -> MixedModes:
     """The ``n`` lowest modes of a mixed model (``mesh``: its solids' stage, with its beams'
     stage as ``mesh.beams``, built on one process). Mass-normalised shapes, each signed so
     that its largest participation factor is positive, as :func:`solve_modes`. With
     ``shapes`` (a directory), their shapes over both parts (the joints' beam nodes recovered
     from their faces) are written as :func:`write_mode_shapes` writes a solid's and a
-    frame's: ``modes.xdmf`` on the tetrahedra, ``modes_beams.xdmf`` on the lines.
+    frame's: ``modes.xdmf`` on the tetrahedra, ``modes_beams.xdmf`` on the lines. Each
+    mode's damping ratio is ``damping``, or the scenario's Rayleigh damping's; with a
+    ``window`` (s) and a ground motion, the response-spectrum estimate over [0, window] as a
+    solid's or a frame's (:func:`_estimate`).
 
     Raises:
         ScenarioError: ``n`` above the free DOFs; the supports leave a rigid mode; a joint's
@@ -112,7 +128,12 @@ def solve_mixed_modes(
     try:
         st_s, st_b = parts
         T, keep_b = _joint_elimination(sc, mesh, st_s, st_b)
-        basis, n_q = _eigen(st_s, st_b, T, keep_b, n)
+        basis, K, MR = _eigen(st_s, st_b, T, keep_b, n)
+        n_q = K.shape[0]
+        zeta = modal_damping(basis.omega, mat.rayleigh_coefficients, damping)
+        estimate = None
+        if window is not None and sc.loading.ground_motions:
+            estimate = _estimate(sc, st_s, st_b, T, K, MR, basis, zeta, window)
         if shapes is not None:
             # Each part's free DOFs, the joints' beam nodes recovered: T q.
             full = np.asarray(T @ basis.shapes.T).T
@@ -132,7 +153,7 @@ def solve_mixed_modes(
     finally:
         for st in parts:
             st.destroy()
-    return MixedModes(basis, n_q, float(mass_total))
+    return MixedModes(basis, n_q, float(mass_total), zeta, estimate)
 
 
 def _eigen(
@@ -141,9 +162,9 @@ def _eigen(
     T: sp.csr_matrix,
     keep_b: npt.NDArray[np.int64],
     n: int,
-) -> tuple[ModalBasis, int]:
-    """The ``n`` lowest modes of T^T diag(K_S, K_b) T q = ω² T^T diag(M_S, M_b) T q, and the
-    kept DOFs' count."""
+) -> tuple[ModalBasis, sp.csc_matrix, FloatArray]:
+    """The ``n`` lowest modes of T^T diag(K_S, K_b) T q = ω² T^T diag(M_S, M_b) T q, the
+    reduced K and M r_d (the kept DOFs' rigid inertia, (n_q, 3))."""
     K0 = sp.block_diag([_csr(st_s.K), _csr(st_b.K)])
     M0 = sp.block_diag([_csr(st_s.M), _csr(st_b.M)])
     K = (T.T @ K0 @ T).tocsc()
@@ -186,4 +207,58 @@ def _eigen(
         if sign < 0:
             phi[k] *= -1.0
             participation[k] *= -1.0
-    return ModalBasis(np.sqrt(lam), phi, participation, total), n_q
+    return ModalBasis(np.sqrt(lam), phi, participation, total), K, MR
+
+
+def _estimate(
+    sc: Scenario,
+    st_s: ClosedStructure,
+    st_b: ClosedStructure,
+    T: sp.csr_matrix,
+    K: sp.csc_matrix,
+    MR: FloatArray,
+    basis: ModalBasis,
+    zeta: FloatArray,
+    window: float,
+) -> SpectralEstimate:
+    """The response-spectrum estimate of a mixed model, as
+    :func:`~crane_fem.modes.estimate.spectral_estimate` makes a solid's or a frame's: its
+    static (gravity), modal and missing-mass responses solved on the kept DOFs (K q = T^T f,
+    one sparse LU), each expanded to both parts (T q) and its forces recovered there — the
+    supports' (and moments) on the beams' point supports where there are any, else on the
+    solids' faces (as a run reports them); the wheels' on the part whose contact pairs are
+    closed (the solids' first)."""
+    t, ground = ground_history(sc, window)
+    zpa = np.max(np.abs(ground), axis=1) if t.size else np.zeros(3)
+    n_s = st_s.free.size
+    lu = spla.splu(K)
+    support_part = st_b if st_b.clamped.size else st_s
+    wheel_part = st_s if st_s.pairs.size or not st_b.pairs.size else st_b
+    parts = {id(support_part): support_part, id(wheel_part): wheel_part}
+    recovery = {k: ForceRecovery(st) for k, st in parts.items()}
+    clamped = {id(st_s): st_s.gravity_clamped, id(st_b): st_b.gravity_clamped}
+
+    def forces(q: FloatArray, body: bool = False) -> Forces:
+        u = np.asarray(T @ np.atleast_2d(q).T).T
+        part_u = {id(st_s): u[:, :n_s], id(st_b): u[:, n_s:]}
+        got = {k: r(part_u[k], body=clamped[k] if body else None) for k, r in recovery.items()}
+        sup, whl = got[id(support_part)], got[id(wheel_part)]
+        return Forces(sup.support, whl.wheel, sup.moment)
+
+    try:
+        gravity = T.T @ np.concatenate([st_s.gravity_load, st_b.gravity_load])
+        static = forces(lu.solve(gravity), body=True)
+        modal = forces(basis.shapes)
+        residual: list[Forces | None] = []
+        for d in range(3):
+            if zpa[d] == 0.0:
+                residual.append(None)
+                continue
+            q = lu.solve(np.ascontiguousarray(MR[:, d]))
+            q -= (basis.gamma[:, d] / basis.omega**2) @ basis.shapes
+            residual.append(forces(zpa[d] * q))
+        centres = recovery[id(support_part)].centres
+    finally:
+        for r in recovery.values():
+            r.destroy()
+    return combine_estimate(t, ground, basis, zeta, window, modal, static, residual, centres)

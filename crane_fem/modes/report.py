@@ -70,7 +70,7 @@ class ModesReport:
     estimate: SpectralEstimate | None
     comparison: list[ComparisonRow]
     run: Path | None = None
-    #: A mixed model's (crane_fem.modes.mixed): two shapes files, no estimate.
+    #: A mixed model's (crane_fem.modes.mixed): two shapes files.
     mixed: bool = False
 
 
@@ -259,10 +259,9 @@ def report_lines(rep: ModesReport) -> list[str]:
     est = rep.estimate
     if rep.mixed:
         lines.append(
-            "a mixed model (solids and beams through their joints, the joints' beam nodes "
-            "eliminated): no response-spectrum estimate (not built)"
+            "a mixed model: solids and beams through their joints, the joints' beam nodes "
+            "following their faces"
         )
-        return lines
     if est is None:
         lines.append("no ground motion in the scenario: no response-spectrum estimate")
         return lines
