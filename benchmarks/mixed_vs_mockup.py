@@ -3,7 +3,7 @@ the all-solid mock-up (demos/crane.toml) fully explicit with its conditioning en
 quantity of THEORY.md §8 (b) side by side (issue 33's acceptance table).
 
     .venv/bin/python benchmarks/mixed_vs_mockup.py [--out DIR] [--report FILE]
-        [--size S] [--reuse]
+        [--size S] [--set KEY=VALUE ...] [--reuse]
 
 Runs (subprocesses, OMP_NUM_THREADS=1):
 
@@ -17,6 +17,10 @@ Runs (subprocesses, OMP_NUM_THREADS=1):
 * the mixed crane as its scene runs it (gc-mean, the beams Newmark, the solid zones
   CD-Lagrange) and the frame crane fully explicit (demos/frame_crane.toml, for what the solid
   zones add).
+
+``--set KEY=VALUE`` makes a variant of both scenes (a key they share, e.g.
+``model.trolley_position=1.5``: the mock-up re-meshed there); give it its own ``--out`` and
+``--report``.
 
 The table judges each quantity by THEORY.md §8 (b): |run − reference| against max(its
 tolerance, the ensemble's spread) (``crane_fem.tolerances``: ``judge_runs``,
@@ -34,6 +38,7 @@ import os
 import subprocess
 import sys
 import time
+import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -112,6 +117,13 @@ def main() -> None:
     )
     ap.add_argument("--size", default="0.04")
     ap.add_argument("--reuse", action="store_true")
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a variant: a key of both scenes (e.g. model.trolley_position=1.5), repeatable",
+    )
     args = ap.parse_args()
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
@@ -119,8 +131,11 @@ def main() -> None:
 
     mesh = out / f"crane_{args.size}.msh"
     if not (args.reuse and mesh.exists()):
-        _call([str(EXE), "mesh", str(SOLID), "--set", f"model.size={args.size}", "-o", str(mesh)])
-    base = {"model.mesh": str(mesh), "model.size": float(args.size)}
+        sets = [a for kv in args.set for a in ("--set", kv)]
+        cmd = [str(EXE), "mesh", str(SOLID), "--set", f"model.size={args.size}", *sets]
+        _call([*cmd, "-o", str(mesh)])
+    variant = {k: tomllib.loads(f"v = {v}")["v"] for k, v in (kv.split("=", 1) for kv in args.set)}
+    base = {"model.mesh": str(mesh), "model.size": float(args.size), **variant}
     ref_settings = explicit_settings(SOLID, base=base)
     ref = _run(SOLID, out / "mockup", ref_settings, args.reuse)
     members_dir = out / "ensemble"
@@ -143,9 +158,12 @@ def main() -> None:
         (members_dir / "process.json").write_text(
             json.dumps({"elapsed_s": time.perf_counter() - t0})
         )
-    mixed = _run(MIXED, out / "mixed", {"output.xdmf": False}, args.reuse)
+    mixed = _run(MIXED, out / "mixed", {"output.xdmf": False, **variant}, args.reuse)
     frame = _run(
-        FRAME, out / "frame", {"coupling.method": "monolithic", "output.xdmf": False}, args.reuse
+        FRAME,
+        out / "frame",
+        {"coupling.method": "monolithic", "output.xdmf": False, **variant},
+        args.reuse,
     )
 
     for run in (mixed, frame):
@@ -161,7 +179,9 @@ def main() -> None:
         "# The mixed crane against the all-solid mock-up: THEORY.md §8 (b), side by side",
         "",
         "Command: `.venv/bin/python benchmarks/mixed_vs_mockup.py`"
-        + (f" --size {args.size}" if args.size != "0.04" else ""),
+        + (f" --size {args.size}" if args.size != "0.04" else "")
+        + "".join(f" --set {kv}" for kv in args.set)
+        + (f" --out {args.out} --report {args.report}" if args.set else ""),
         "",
         f"Started {started}"
         + (" (--reuse: the runs of an earlier start)" if args.reuse else "")

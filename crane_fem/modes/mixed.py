@@ -234,15 +234,19 @@ def _estimate(
     lu = spla.splu(K)
     support_part = st_b if st_b.clamped.size else st_s
     wheel_part = st_s if st_s.pairs.size or not st_b.pairs.size else st_b
-    parts = {id(support_part): support_part, id(wheel_part): wheel_part}
-    recovery = {k: ForceRecovery(st) for k, st in parts.items()}
-    clamped = {id(st_s): st_s.gravity_clamped, id(st_b): st_b.gravity_clamped}
+    on_support = ForceRecovery(support_part)
+    on_wheels = on_support if wheel_part is support_part else ForceRecovery(wheel_part)
+
+    def recover(recovery: ForceRecovery, u: FloatArray, body: bool) -> Forces:
+        st = recovery.st
+        mine = u[:, :n_s] if st is st_s else u[:, n_s:]
+        return recovery(mine, body=st.gravity_clamped if body else None)
 
     def forces(q: FloatArray, body: bool = False) -> Forces:
+        """The forces of kept-DOF displacements q (m, n_q): T q on each part."""
         u = np.asarray(T @ np.atleast_2d(q).T).T
-        part_u = {id(st_s): u[:, :n_s], id(st_b): u[:, n_s:]}
-        got = {k: r(part_u[k], body=clamped[k] if body else None) for k, r in recovery.items()}
-        sup, whl = got[id(support_part)], got[id(wheel_part)]
+        sup = recover(on_support, u, body)
+        whl = sup if on_wheels is on_support else recover(on_wheels, u, body)
         return Forces(sup.support, whl.wheel, sup.moment)
 
     try:
@@ -257,8 +261,9 @@ def _estimate(
             q = lu.solve(np.ascontiguousarray(MR[:, d]))
             q -= (basis.gamma[:, d] / basis.omega**2) @ basis.shapes
             residual.append(forces(zpa[d] * q))
-        centres = recovery[id(support_part)].centres
+        centres = on_support.centres
     finally:
-        for r in recovery.values():
-            r.destroy()
+        on_support.destroy()
+        if on_wheels is not on_support:
+            on_wheels.destroy()
     return combine_estimate(t, ground, basis, zeta, window, modal, static, residual, centres)
