@@ -92,16 +92,26 @@ BRIDGE = ("girder_", "zone_", "end_carriage_")
 
 def _bridge_stress(run: dict[str, Any]) -> None:
     """Give a beam model's summary the mock-up's bridge stress keys from its groups' peaks:
-    the bridge's (max over :data:`BRIDGE`'s groups) and the girders' (``girder 1``, the
-    mock-up's governing part: max over both girders and their zones — the mock-up's two
-    girders agree within 1e-11). A beam's is its extreme fibres' von Mises, a solid's its
-    largest cell value: the same sign-off quantity, not the same estimate."""
+    the bridge's (max over :data:`BRIDGE`'s groups) and each of the mock-up's parts': end
+    carriage k its ``end_carriage_k``, girder k and rail k (the beams' girder section holds
+    its rail) the max over ``girder_k`` and the zones on girder k (the mixed crane's one zone
+    a girder, the frame's one a wheel, wheels 1–2 on girder 1). A beam's is its extreme
+    fibres' von Mises, a solid's its largest cell value: the same sign-off quantity, not the
+    same estimate."""
     groups = {k: v["peak_Pa"] for k, v in run.get("peak_von_mises_by_group", {}).items()}
     bridge = [v for k, v in groups.items() if k.startswith(BRIDGE)]
-    girders = [v for k, v in groups.items() if k.startswith(("girder_", "zone_"))]
-    if bridge:
-        run["peak_bridge_von_mises_Pa"] = max(bridge)
-        run["peak_bridge_von_mises_by_part_Pa"] = {"girder 1": max(girders)}
+    if not bridge:
+        return
+    zones = sorted((k for k in groups if k.startswith("zone_")), key=lambda k: int(k[5:]))
+    per = max(1, len(zones) // 2)
+    parts = {}
+    for k in (1, 2):
+        on_girder = [groups[z] for z in zones[(k - 1) * per : k * per]]
+        girder = max([groups.get(f"girder_{k}", 0.0), *on_girder])
+        parts |= {f"girder {k}": girder, f"rail {k}": girder}
+        parts[f"end carriage {k}"] = groups.get(f"end_carriage_{k}", 0.0)
+    run["peak_bridge_von_mises_Pa"] = max(bridge)
+    run["peak_bridge_von_mises_by_part_Pa"] = parts
 
 
 def main() -> None:
@@ -125,7 +135,7 @@ def main() -> None:
         help="a variant: a key of both scenes (e.g. model.trolley_position=1.5), repeatable",
     )
     args = ap.parse_args()
-    out: Path = args.out
+    out: Path = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
     started = time.strftime("%Y-%m-%d %H:%M:%S")
 
