@@ -16,7 +16,14 @@ import numpy.typing as npt
 from crane_fem.geometry.crane_parameters import CraneGeometry
 from crane_fem.geometry.groups import CRANE_FLANGE_SURFACES, CRANE_SURFACES, CRANE_VOLUMES
 
-__all__ = ["IDENTITY", "mirror_mesh", "reflect", "reflect_region", "snap_to_planes"]
+__all__ = [
+    "IDENTITY",
+    "meshed_region",
+    "mirror_mesh",
+    "reflect",
+    "reflect_region",
+    "snap_to_planes",
+]
 
 #: The 4×4 affine identity (row-major): the periodic map of coincident wheel/rail patches.
 IDENTITY = [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
@@ -32,6 +39,24 @@ def reflect(
         if copy >> b & 1:
             q[..., axis] = 2.0 * c - q[..., axis]
     return q + 0.0  # no negative zeros
+
+
+def meshed_region(
+    groups: dict[tuple[int, str], list[int]],
+) -> tuple[npt.NDArray[np.float64], dict[tuple[int, str], npt.NDArray[np.int64]]]:
+    """The current gmsh model's mesh: its nodes' coordinates (n, 3) and, per (dim, name) of
+    ``groups`` (its entities of that dimension), its tetrahedra (dim 3) or triangles (dim 2)
+    over them (0-based): a region for :func:`reflect_region`."""
+    tags, xyz, _ = gmsh.model.mesh.getNodes()
+    tags = tags.astype(np.int64)
+    index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
+    index[tags] = np.arange(tags.size)
+    region = {}
+    for (dim, name), entities in groups.items():
+        etype, nper = (4, 4) if dim == 3 else (2, 3)
+        conn = [gmsh.model.mesh.getElementsByType(etype, e)[1] for e in entities]
+        region[dim, name] = index[np.concatenate(conn).astype(np.int64)].reshape(-1, nper)
+    return xyz.reshape(-1, 3).copy(), region
 
 
 def snap_to_planes(
@@ -95,20 +120,10 @@ def mirror_mesh(
     crane rocks and pitches the trolley on its own under a vertical load). The wheel/rail
     patches keep their periodic (node-to-node) correspondence.
     """
-    tags, xyz, _ = gmsh.model.mesh.getNodes()
-    tags = tags.astype(np.int64)
-    xyz = xyz.reshape(-1, 3).copy()
-    index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
-    index[tags] = np.arange(tags.size)
+    xyz, region = meshed_region(
+        {(3, n): e for n, e in vol_groups.items()} | {(2, n): e for n, e in surf_groups.items()}
+    )
     on_plane = snap_to_planes(xyz, planes)
-
-    def cells(dim: int, entities: list[int]) -> npt.NDArray[np.int64]:
-        etype, nper = (4, 4) if dim == 3 else (2, 3)
-        conn = [gmsh.model.mesh.getElementsByType(etype, e)[1] for e in entities]
-        return index[np.concatenate(conn).astype(np.int64)].reshape(-1, nper)
-
-    region = {(3, n): cells(3, e) for n, e in vol_groups.items()}
-    region |= {(2, n): cells(2, e) for n, e in surf_groups.items()}
     centres = geo.wheel_centres()
 
     def rename(name: str, copy: int) -> str:

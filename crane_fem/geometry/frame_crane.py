@@ -205,7 +205,7 @@ def _solid_zones(
     symmetric in both whatever the trolley's position): the zones' meshes are mirror images,
     so a symmetric load loads the four wheels alike (an unstructured mesh of each would rock
     the trolley on its own, as the mock-up's would: crane_fem.geometry.crane_mirror)."""
-    from crane_fem.geometry.crane_mirror import reflect_region, snap_to_planes
+    from crane_fem.geometry.crane_mirror import meshed_region, reflect_region, snap_to_planes
 
     hc, hg, hr = m.end_carriage_height, m.girder_height, m.rail_height
     rail_top = hc + hg + hr
@@ -214,10 +214,9 @@ def _solid_zones(
     x, (xw, yw) = xs[1], wheels[2]
     planes = [(0, 0.0), (1, yc)]
 
-    def quarter() -> dict[tuple[int, str], Any]:
+    def quarter() -> tuple[Any, dict[tuple[int, str], Any]]:
         """Mesh the quarter in its own gmsh model: its nodes and, per group, its simplices."""
         import gmsh
-        import numpy as np
 
         occ = gmsh.model.occ
         girder = occ.addBox(x - 0.5 * m.girder_width, seg[0], hc, m.girder_width, yc - seg[0], hg)
@@ -256,24 +255,16 @@ def _solid_zones(
 
         gmsh.model.mesh.setSizeCallback(size)
         gmsh.model.mesh.generate(3)
-        tags, xyz, _ = gmsh.model.mesh.getNodes()
-        index = np.zeros(int(tags.max()) + 1, dtype=np.int64)
-        index[tags.astype(np.int64)] = np.arange(tags.size)
-
-        def cells(dim: int, entities: list[int]) -> Any:
-            etype, nper = (4, 4) if dim == 3 else (2, 3)
-            conn = [gmsh.model.mesh.getElementsByType(etype, e)[1] for e in entities]
-            return index[np.concatenate(conn).astype(np.int64)].reshape(-1, nper)
-
-        return {
-            (0, ""): xyz.reshape(-1, 3).copy(),
-            (3, "zone_2"): cells(3, zone),
-            (2, "zone_2_a"): cells(2, faces(zone, 1, seg[0])),
-            (2, "rail_top_2"): cells(2, faces(zone, 2, rail_top, y_lo)),
-            (3, "wheel_3"): cells(3, [block]),
-            (2, "wheel_bottom_3"): cells(2, faces([block], 2, rail_top)),
-            (2, "wheel_top_3"): cells(2, faces([block], 2, rail_top + m.wheel_height)),
-        }
+        return meshed_region(
+            {
+                (3, "zone_2"): zone,
+                (2, "zone_2_a"): faces(zone, 1, seg[0]),
+                (2, "rail_top_2"): faces(zone, 2, rail_top, y_lo),
+                (3, "wheel_3"): [block],
+                (2, "wheel_bottom_3"): faces([block], 2, rail_top),
+                (2, "wheel_top_3"): faces([block], 2, rail_top + m.wheel_height),
+            }
+        )
 
     def rename(name: str, copy: int) -> str:
         """The image's group: x = 0 swaps girder 2 (wheels 3, 4) for girder 1 (wheels 1, 2),
@@ -291,10 +282,9 @@ def _solid_zones(
 
         frame = gmsh.model.getCurrent()
         gmsh.model.add("zones")
-        region = quarter()
+        xyz, region = quarter()
         gmsh.model.remove()
         gmsh.model.setCurrent(frame)
-        xyz = region.pop((0, ""))
         on_plane = snap_to_planes(xyz, planes)
         coords, groups = reflect_region(xyz, on_plane, planes, region, rename)
         node0 = int(gmsh.model.mesh.getMaxNodeTag())
