@@ -1,9 +1,8 @@
 """The stiffness product of the explicit kernel fused with the free velocity update (THEORY.md
 §1, (1.2)) and its energy sums: one pass over the block CSR stiffness per micro step, in
 PETSc's summation order (bs = 3 blocks, bs = 1 scalars; any bs with stiffness damping), or,
-on a serial zone with bs = 3, over K's upper block triangle only (half the memory traffic:
-the stress-grade crane's K no longer fits in a core's L2 cache, its upper triangle does);
-beams (bs = 6) over their scalar nonzeros, on a zone without ghost columns in one loop."""
+on a serial zone with bs = 3, over K's upper block triangle only (half the memory traffic;
+its blocks in 4-wide vector operations, crane_fem.kernels.vector); beams (bs = 6) over their scalar nonzeros, on a zone without ghost columns in one loop."""
 
 from __future__ import annotations
 
@@ -11,6 +10,7 @@ import numba
 import numpy as np
 import numpy.typing as npt
 
+from crane_fem.kernels.vector import upper_row3
 from crane_fem.kernels.zone import Zone, ZoneState
 
 __all__ = ["free_rows", "load_at", "stiffness_velocity"]
@@ -164,6 +164,7 @@ def _rows3_upper(
     ptr: IntArray,
     idx: npt.NDArray[np.int32],
     dat: FloatArray,
+    diag: FloatArray,
     u: FloatArray,
     vh: FloatArray,
     ku: FloatArray,
@@ -177,9 +178,10 @@ def _rows3_upper(
 ) -> tuple[float, float]:
     """:func:`_rows3` on every block row of a serial zone from K's upper block triangle
     (crane_fem.kernels.zone.upper_blocks): row r's block (r, c > r) adds A u_c to row r and
-    Aᵀ u_r to row c, accumulated in ``ku``; rows are taken in order, so row r's sum is
-    complete once its own blocks are, and its update follows at once. The sums differ from
-    PETSc's order by round-off (fused multiply-adds)."""
+    Aᵀ u_r to row c, accumulated in ``ku`` (crane_fem.kernels.vector: 4-wide); rows are
+    taken in order, so row r's sum is complete once its own blocks are, and its update
+    follows at once. The sums differ from PETSc's order by round-off (fused multiply-adds,
+    the vector lanes added at the row's end)."""
     nb = ptr.size - 1
     for i in range(3 * nb):
         ku[i] = 0.0
@@ -190,32 +192,11 @@ def _rows3_upper(
         r0 = u[i]
         r1 = u[i + 1]
         r2 = u[i + 2]
-        j0 = ptr[r]
-        b = 9 * j0  # the diagonal block
-        s0 = ku[i] + (dat[b] * r0 + dat[b + 1] * r1 + dat[b + 2] * r2)
-        s1 = ku[i + 1] + (dat[b + 3] * r0 + dat[b + 4] * r1 + dat[b + 5] * r2)
-        s2 = ku[i + 2] + (dat[b + 6] * r0 + dat[b + 7] * r1 + dat[b + 8] * r2)
-        for jj in range(j0 + 1, ptr[r + 1]):
-            c = 3 * idx[jj]
-            b = 9 * jj
-            x0 = u[c]
-            x1 = u[c + 1]
-            x2 = u[c + 2]
-            a00 = dat[b]
-            a01 = dat[b + 1]
-            a02 = dat[b + 2]
-            a10 = dat[b + 3]
-            a11 = dat[b + 4]
-            a12 = dat[b + 5]
-            a20 = dat[b + 6]
-            a21 = dat[b + 7]
-            a22 = dat[b + 8]
-            s0 += a00 * x0 + a01 * x1 + a02 * x2
-            s1 += a10 * x0 + a11 * x1 + a12 * x2
-            s2 += a20 * x0 + a21 * x1 + a22 * x2
-            ku[c] += a00 * r0 + a10 * r1 + a20 * r2
-            ku[c + 1] += a01 * r0 + a11 * r1 + a21 * r2
-            ku[c + 2] += a02 * r0 + a12 * r1 + a22 * r2
+        t0, t1, t2 = upper_row3(ptr[r], ptr[r + 1], idx, dat, u, ku, r0, r1, r2)
+        g = 9 * r
+        s0 = ku[i] + (diag[g] * r0 + diag[g + 1] * r1 + diag[g + 2] * r2) + t0
+        s1 = ku[i + 1] + (diag[g + 3] * r0 + diag[g + 4] * r1 + diag[g + 5] * r2) + t1
+        s2 = ku[i + 2] + (diag[g + 6] * r0 + diag[g + 7] * r1 + diag[g + 8] * r2) + t2
         e, d = _update3(i, s0, s1, s2, vh, ku, minv, mass, base, shapes, coef, alpha, h)
         ext += e
         damp += d
@@ -364,6 +345,7 @@ def free_rows(
             z.u_indptr,
             z.u_indices,
             z.u_data,
+            z.u_diag,
             st.u,
             st.vh,
             st.ku,

@@ -146,14 +146,16 @@ class _ZoneFields(NamedTuple):
     #: The row of each of those nonzeros (the serial beam product runs over them in one
     #: loop: a frame's rows hold 1–12 nonzeros, too few for a loop per row).
     s_rows: IntArray = np.zeros(0, dtype=np.int64)
-    #: K's upper block triangle (block CSR, each row's diagonal block first, then its blocks
-    #: right of the diagonal in column order; ``u_data`` flat, 9 values a block, row-major),
-    #: for a serial zone with bs = 3 and no stiffness damping: the product then reads half
-    #: of K (stiffness.py). Derived by :class:`Zone` from ``indptr``, ``indices``, ``data``;
-    #: empty otherwise.
+    #: K's upper block triangle, for a serial zone with bs = 3 and no stiffness damping: the
+    #: product then reads half of K (stiffness.py). The blocks right of the diagonal as block
+    #: CSR in column order, ``u_data`` flat, 12 values a block (its rows, each padded to 4:
+    #: crane_fem.kernels.vector); the diagonal blocks in ``u_diag``, 9 values a row,
+    #: row-major. Derived by :class:`Zone` from ``indptr``, ``indices``, ``data``; empty
+    #: otherwise.
     u_indptr: IntArray = np.zeros(0, dtype=np.int64)
     u_indices: npt.NDArray[np.int32] = np.zeros(0, dtype=np.int32)
     u_data: FloatArray = np.zeros(0)
+    u_diag: FloatArray = np.zeros(0)
     #: W_ΓΓ's terms off its diagonal by row (CSR: ``gg_ptr`` (n_g + 1), columns, values)
     #: where interface rows share DOFs (a rigid section's six rows on one face,
     #: crane_fem.coupling.rigid_section); empty when W_ΓΓ is diagonal (rows on distinct
@@ -170,9 +172,10 @@ UPPER_TRIANGLE = True
 
 def upper_blocks(
     indptr: IntArray, indices: IntArray, data: FloatArray
-) -> tuple[IntArray, npt.NDArray[np.int32], FloatArray] | None:
+) -> tuple[IntArray, npt.NDArray[np.int32], FloatArray, FloatArray] | None:
     """K's upper block triangle in the layout of :attr:`Zone.u_indptr` (``indices`` local
-    block columns; ``data`` (nnzb, 3, 3)), or None where a row has no diagonal block or a
+    block columns; ``data`` (nnzb, 3, 3)): the off-diagonal blocks' row pointers, columns and
+    padded values, and the diagonal blocks; or None where a row has no diagonal block or a
     column is a ghost's (a zone that spans ranks). K's two triangles agree to round-off
     (the assembled element matrices are symmetric to round-off): the product of the upper
     one and its transpose is K's to round-off."""
@@ -180,15 +183,29 @@ def upper_blocks(
     rows = np.repeat(np.arange(nb, dtype=np.int64), np.diff(indptr))
     if indices.size == 0 or int(indices.max()) >= nb:
         return None
-    keep = indices >= rows
-    r, c, a = rows[keep], indices[keep], data[keep]
+    blocks = np.asarray(data, dtype=np.float64).reshape(-1, 3, 3)
+    on = indices == rows
+    if np.count_nonzero(on) != nb or np.any(np.sort(rows[on]) != np.arange(nb)):
+        return None
+    diag = np.zeros((nb, 3, 3))
+    diag[rows[on]] = blocks[on]
+    keep = indices > rows
+    r, c, a = rows[keep], indices[keep], blocks[keep]
     order = np.lexsort((c, r))
     r, c, a = r[order], c[order], a[order]
     ptr = np.zeros(nb + 1, dtype=np.int64)
     ptr[1:] = np.cumsum(np.bincount(r, minlength=nb))
-    if np.any(np.diff(ptr) == 0) or np.any(c[ptr[:-1]] != np.arange(nb)):
-        return None
-    return ptr, c.astype(np.int32), np.ascontiguousarray(a, dtype=np.float64).reshape(-1)
+    padded = _aligned(12 * c.size).reshape(-1, 3, 4)
+    padded[:, :, :3] = a
+    return ptr, c.astype(np.int32), padded.reshape(-1), diag.reshape(-1)
+
+
+def _aligned(n: int, align: int = 64) -> FloatArray:
+    """n zeros starting on an ``align``-byte boundary (a cache line: a 4-wide row of a block
+    then never straddles two; NumPy's own allocations start on 16 bytes)."""
+    raw = np.zeros(n + align // 8)
+    first = (-raw.ctypes.data % align) // 8
+    return raw[first : first + n]
 
 
 class Zone(_ZoneFields):
@@ -204,7 +221,9 @@ class Zone(_ZoneFields):
         if eligible and self.u_indptr.size == 0 and self.boundary.size == 0:
             upper = upper_blocks(self.indptr, self.indices, self.data)
             if upper is not None:
-                self = self._replace(u_indptr=upper[0], u_indices=upper[1], u_data=upper[2])
+                self = self._replace(
+                    u_indptr=upper[0], u_indices=upper[1], u_data=upper[2], u_diag=upper[3]
+                )
         return self
 
 
