@@ -2,7 +2,8 @@
 §1, (1.2)) and its energy sums: one pass over the block CSR stiffness per micro step, in
 PETSc's summation order (bs = 3 blocks, bs = 1 scalars; any bs with stiffness damping), or,
 on a serial zone with bs = 3, over K's upper block triangle only (half the memory traffic;
-its blocks in 4-wide vector operations, crane_fem.kernels.vector); beams (bs = 6) over their scalar nonzeros, on a zone without ghost columns in one loop."""
+its blocks in 4-wide vector operations, crane_fem.kernels.vector); beams (bs = 6) over their
+scalar nonzeros, on a zone without ghost columns in one loop."""
 
 from __future__ import annotations
 

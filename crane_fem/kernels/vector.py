@@ -16,7 +16,8 @@ FMA, a multiply and an add where it does not.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable
+from typing import Any, cast
 
 from llvmlite import ir
 from numba import types
@@ -29,8 +30,8 @@ __all__ = ["upper_row3"]
 BLOCK = 12
 
 
-@intrinsic  # type: ignore[misc]
-def upper_row3(
+@intrinsic
+def _upper_row3(
     typingctx: Any,
     j0: Any,
     j1: Any,
@@ -96,7 +97,9 @@ def upper_row3(
             for ak, row in zip(acc, rows, strict=True):
                 builder.store(builder.call(fmuladd, [row, x, builder.load(ak)]), ak)
             kp = builder.bitcast(builder.gep(ku_p, [c], inbounds=True), p4)
-            t = builder.call(fmuladd, [rows[0], rr[0], builder.call(mload, [kp, align, mask, zero])])
+            t = builder.call(
+                fmuladd, [rows[0], rr[0], builder.call(mload, [kp, align, mask, zero])]
+            )
             t = builder.call(fmuladd, [rows[1], rr[1], t])
             t = builder.call(fmuladd, [rows[2], rr[2], t])
             builder.call(mstore, [t, kp, align, mask])
@@ -108,3 +111,8 @@ def upper_row3(
         return context.make_tuple(builder, signature.return_type, sums)
 
     return sig, codegen
+
+
+#: :func:`_upper_row3` as its callers see it (an intrinsic's Python signature starts with the
+#: typing context).
+upper_row3 = cast(Callable[..., tuple[float, float, float]], _upper_row3)
