@@ -491,9 +491,9 @@ def contacts_friction(
                 n_closed += 1
         if n_closed == 0:
             continue
-        if n_closed == 1 and z.bs == 6:
-            # A beam's wheel with its flanges open: its own problem (the solid scenes keep
-            # the coupled solver: their stored histories were made with it).
+        if n_closed == 1:
+            # One closed point in its component (a beam's wheel with its flanges open, a
+            # solid wheel's point on its own rail triangle): its own problem.
             for c in comp:
                 if closed[c]:
                     _single(z, st, c, lam_c, flags)
@@ -531,9 +531,9 @@ def _single(z: Zone, st: ZoneState, c: int, lam_c: FloatArray, flags: IntArray) 
             for k in range(nk):
                 lam_t[k0 + k] = (-qt[k0 + k] / w) * f
         return
-    if nk == 2 and z.bs == 6 and qc[c] < 0.0 and z.mu[c] != 0.0:
-        # A beam's wheel: its 3 × 3 problem on scalars (no allocation), the general path
-        # only where its first candidates fail.
+    if nk == 2 and qc[c] < 0.0 and z.mu[c] != 0.0:
+        # A point with two tangential rows: its 3 × 3 problem on scalars (no allocation),
+        # the general path only where its first candidates fail.
         t0, t1 = k0, k0 + 1
         wn0, wn1 = z.W_nt[c, t0], z.W_nt[c, t1]
         W9 = (w, wn0, wn1, wn0, z.W_tt[t0, t0], z.W_tt[t0, t1], wn1, z.W_tt[t1, t0], z.W_tt[t1, t1])
