@@ -185,7 +185,7 @@ def upper_blocks(
         return None
     blocks = np.asarray(data, dtype=np.float64).reshape(-1, 3, 3)
     on = indices == rows
-    if np.count_nonzero(on) != nb or np.any(np.sort(rows[on]) != np.arange(nb)):
+    if np.count_nonzero(on) != nb or np.any(rows[on] != np.arange(nb)):
         return None
     diag = np.zeros((nb, 3, 3))
     diag[rows[on]] = blocks[on]
