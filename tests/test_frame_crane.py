@@ -265,6 +265,11 @@ BAD: dict[str, tuple[list[str], list[str]]] = {
         ["wheel.contact", "leave wheel.contact out"],
     ),
     "zones_overlap": (["--set", "model.zone_margin=0.4"], ["model.zone_margin", "overlap"]),
+    "solid_flanges_too_deep": (
+        ["--set", "model.wheel_zones='solid'", "--set", "model.flanges=true"]
+        + ["--set", "model.flange_depth=0.05"],
+        ["model", "flange_depth = 0.05", "rail_height = 0.04"],
+    ),
     "girder_box_incomplete": (
         ["--set", "model.girder={shape='box', b=0.1}"],
         ["model.girder.h", "missing"],

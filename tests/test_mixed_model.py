@@ -363,6 +363,49 @@ def test_frame_crane_with_solid_wheel_zones(shared_tmp: Path) -> None:
     assert s["energy_balance_error"] <= 1e-8
 
 
+@pytest.mark.serial  # set-up and 26 ms; the contacts' two-rank behaviour: test_sliding.py
+def test_flanges_of_the_solid_wheel_zones(shared_tmp: Path) -> None:
+    """Solid wheel zones with flanges (``model.flanges``): each wheel block carries the
+    mock-up's two flanges, 5 mm off its rail's sides, frictionless node-to-surface contacts
+    ``flange_in_k``/``flange_out_k`` on the rail's side faces. A steady ground acceleration
+    a = 20 m/s² across the rails (half-cosine ramp τ = 2 ms) drives the bridge under the
+    trolley, which the frictionless wheels leave behind: each wheel's flange on the +x side
+    of its rail strikes (girder 2's outer ones, girder 1's inner ones: the names hold
+    through the mirror images), the other four stay clear. Rigid rails would close the
+    clearance c at t* = τ/2 + √(2c/a); the bridge yields to the same acceleration (its
+    rails move along with the trolley), so the strike comes no earlier and within 10 %."""
+    (shared_tmp / "push.csv").write_text("0.0,20.0\n1.0,20.0\n")
+    toml = (
+        'name = "frame_crane_flanges"\n[model]\nkind = "frame_crane"\nhoisted_mass = 200.0\n'
+        'wheel_zones = "solid"\nflanges = true\nsolid_size = 0.04\nfine = 0.05\n'
+        "[material]\nE = 2.1e11\nrho = 7800.0\nnu = 0.3\n"
+        "[loading]\ngravity = [0.0, 0.0, -9.81]\n"
+        '[[loading.ground_motion]]\nrecord = "push.csv"\ndirection = [1.0, 0.0, 0.0]\n'
+        "taper = 0.002\n"
+        '[coupling]\nmethod = "gc-mean"\nratio = 20\n[newmark]\nmass = "lumped"\n'
+        "[time]\nend = 0.026\ndt_factor = 0.9\n[output]\nxdmf = false\n"
+    )
+    path = write(shared_tmp / "frame_crane_flanges.toml", toml)
+    out = shared_tmp / "frame_crane_flanges"
+    assert main(["run", str(path), "-o", str(out), "--no-progress"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["preload"]["contact_forces_N"]["flange_in_1"] == 0.0  # 5 mm off at rest
+    t_star = 0.001 + (2.0 * 0.005 / 20.0) ** 0.5
+    flanges = s["flanges"]
+    struck = {"in_1", "in_2", "out_3", "out_4"}
+    for name, f in flanges.items():
+        if name in struck:
+            assert f["impacts"], (name, f)
+            assert t_star <= f["impacts"][0]["t_s"] <= 1.1 * t_star, (name, f["impacts"][0])
+        else:
+            assert not f["impacts"] and f["peak_force_N"] == 0.0, (name, f)
+    # The mirror images strike alike (the zones' meshes are one quarter's reflections).
+    for a, b in (("in_1", "in_2"), ("out_3", "out_4")):
+        pa, pb = flanges[a]["peak_force_N"], flanges[b]["peak_force_N"]
+        assert abs(pa - pb) <= 1e-9 * pa
+    assert s["energy_balance_error"] <= 1e-8
+
+
 @pytest.mark.serial  # five short runs; the methods' two-rank behaviour: test_coupling.py
 def test_every_coupling_method_through_the_joints(shared_tmp: Path) -> None:
     """gc, gc-mean, ec, ph and hybrid on the cantilever from rest (m = 4, 4 ms): each closes

@@ -190,6 +190,59 @@ def frame_crane_layout(m: Any) -> FrameCraneLayout:
     return FrameCraneLayout(s, axis, rail_top, level, wheels, girder, plate / grillage, solids)
 
 
+#: The flanges of girder 2's wheels (x > 0), the quarter meshed: (name, side of the rail
+#: along x); the inner one faces x = 0 (its images in x = 0 face it too).
+_FLANGE_SIDES = (("in", -1.0), ("out", 1.0))
+
+
+def _flanged_wheel(
+    m: Any, block: int, x_rail: float, centre: tuple[float, float], rail_top: float
+) -> tuple[int, list[tuple[str, int]]]:
+    """The wheel ``block`` fused with its two flanges (one OCC volume, not synchronised), as
+    the 3D mock-up's (crane_fem.geometry.crane_build): each a plate ``flange_thickness`` thick
+    hanging ``flange_depth`` below the rail top, its inner face ``flange_clearance`` off the
+    rail's side, joined to the wheel by a web over the upper half of its height. Returns the
+    body and, per side, the flange face's patch below the rail top (the contact points)."""
+    import gmsh
+
+    occ = gmsh.model.occ
+    xw, yw = centre
+    y0, hw = yw - 0.5 * m.wheel_length, m.wheel_height
+    reach = 0.5 * m.rail_width + m.flange_clearance + m.flange_thickness
+    parts, rects = [], []
+    for side, s in _FLANGE_SIDES:
+        face = x_rail + s * (0.5 * m.rail_width + m.flange_clearance)
+        outer = x_rail + s * reach
+        low = rail_top - m.flange_depth
+        parts.append(
+            occ.addBox(
+                min(face, outer), y0, low, m.flange_thickness, m.wheel_length, m.flange_depth + hw
+            )
+        )
+        parts.append(
+            occ.addBox(min(xw, outer), y0, rail_top + 0.5 * hw, abs(outer - xw), m.wheel_length, 0.5 * hw)
+        )
+        corners = [(y0, low), (y0 + m.wheel_length, low), (y0 + m.wheel_length, rail_top), (y0, rail_top)]
+        points = [occ.addPoint(face, y, z) for y, z in corners]
+        lines = [occ.addLine(points[i], points[(i + 1) % 4]) for i in range(4)]
+        rects.append((side, face, occ.addPlaneSurface([occ.addCurveLoop(lines)])))
+    body, _ = occ.fuse([(3, block)], [(3, t) for t in parts])
+    if len(body) != 1:
+        raise RuntimeError("frame crane: a wheel and its flanges do not fuse into one body")
+    out, _ = occ.fragment(body, [(2, r) for _, _, r in rects])  # (imprinted on its faces)
+    vols = [t for d, t in out if d == 3]
+    occ.synchronize()
+    patches = []
+    eps = 1e-6
+    for side, face, _ in rects:
+        box = (face - eps, y0 - eps, rail_top - m.flange_depth - eps, face + eps, y0 + m.wheel_length + eps, rail_top + eps)
+        found = [t for _, t in gmsh.model.getEntitiesInBoundingBox(*box, 2)]
+        if len(found) != 1:
+            raise RuntimeError(f"frame crane: the {side} flange's face of a wheel not found")
+        patches.append((side, found[0]))
+    return vols[0], patches
+
+
 def _solid_zones(
     m: Any, xs: tuple[float, float], wheels: list[tuple[float, float]], seg: tuple[float, float]
 ) -> Callable[[], None]:
@@ -234,6 +287,9 @@ def _solid_zones(
             m.wheel_length,
             m.wheel_height,
         )
+        patches: list[tuple[str, int]] = []
+        if m.flanges:
+            block, patches = _flanged_wheel(m, block, x, (xw, yw), rail_top)
         occ.synchronize()
 
         def faces(vols: list[int], axis: int, value: float, lo: float | None = None) -> list[int]:
@@ -255,16 +311,20 @@ def _solid_zones(
 
         gmsh.model.mesh.setSizeCallback(size)
         gmsh.model.mesh.generate(3)
-        return meshed_region(
-            {
-                (3, "zone_2"): zone,
-                (2, "zone_2_a"): faces(zone, 1, seg[0]),
-                (2, "rail_top_2"): faces(zone, 2, rail_top, y_lo),
-                (3, "wheel_3"): [block],
-                (2, "wheel_bottom_3"): faces([block], 2, rail_top),
-                (2, "wheel_top_3"): faces([block], 2, rail_top + m.wheel_height),
-            }
-        )
+        groups = {
+            (3, "zone_2"): zone,
+            (2, "zone_2_a"): faces(zone, 1, seg[0]),
+            (2, "rail_top_2"): faces(zone, 2, rail_top, y_lo),
+            (3, "wheel_3"): [block],
+            (2, "wheel_bottom_3"): faces([block], 2, rail_top),
+            (2, "wheel_top_3"): faces([block], 2, rail_top + m.wheel_height),
+        }
+        for side, s in _FLANGE_SIDES if m.flanges else ():
+            # The rail's side under the wheels (its middle part: the contact surface) and
+            # the flange's face below the rail top (the contact points), ``clearance`` off.
+            groups[2, f"rail_{side}_2"] = faces(zone, 0, x + s * 0.5 * m.rail_width, y_lo)
+            groups[2, f"flange_face_{side}_3"] = [t for name, t in patches if name == side]
+        return meshed_region(groups)
 
     def rename(name: str, copy: int) -> str:
         """The image's group: x = 0 swaps girder 2 (wheels 3, 4) for girder 1 (wheels 1, 2),
@@ -272,7 +332,7 @@ def _solid_zones(
         in_x, in_y = copy & 1, copy >> 1 & 1
         if name.startswith("zone_2_a"):
             return f"zone_{2 - in_x}_{'b' if in_y else 'a'}"
-        if name.startswith(("zone_", "rail_top_")):
+        if name.startswith(("zone_", "rail_")):
             return f"{name[:-1]}{2 - in_x}"
         return f"{name[:-1]}{1 + 2 * (1 - in_x) + in_y}"
 
@@ -296,11 +356,12 @@ def _solid_zones(
         # wheel_bottom_k, wheel_top_k): a reader keeping the volumes' closure keeps them.
         for v in volumes:
             stem, k = v.rsplit("_", 1)
-            faces = (
-                [f"zone_{k}_a", f"zone_{k}_b", f"rail_top_{k}"]
+            named = (
+                ["zone_{k}_a", "zone_{k}_b", "rail_top_{k}", "rail_in_{k}", "rail_out_{k}"]
                 if stem == "zone"
-                else [f"wheel_bottom_{k}", f"wheel_top_{k}"]
+                else ["wheel_bottom_{k}", "wheel_top_{k}", "flange_face_in_{k}", "flange_face_out_{k}"]
             )
+            faces = [f.format(k=k) for f in named if (2, f.format(k=k)) in entity]
             entity[3, v] = gmsh.model.addDiscreteEntity(3, -1, [entity[2, f] for f in faces])
         # Every node to the first volume (a node has one owner; the groups share them).
         first = entity[3, volumes[0]]
@@ -485,6 +546,17 @@ def _expand_solid_zones(
         }
         for k in range(1, 5)
     ]
+    if m.flanges:  # frictionless, as the mock-up's and the frame's
+        out["contact"] += [
+            {
+                "type": "surface",
+                "points": f"flange_face_{side}_{k}",
+                "surface": f"rail_{side}_{1 if k <= 2 else 2}",
+                "name": f"flange_{side}_{k}",
+            }
+            for k in range(1, 5)
+            for side in ("in", "out")
+        ]
     if not out.get("subdomain"):
         out["subdomain"] = [
             {"name": "wheel_zones", "groups": volumes, "scheme": "cd-lagrange"},

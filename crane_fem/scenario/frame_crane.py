@@ -101,6 +101,10 @@ class FrameCraneModel(Section):
     fine: PositiveFloat = 0.05
     flanges: bool = False
     flange_clearance: NonNegativeFloat = 0.005
+    #: With ``wheel_zones = "solid"``: the flanges' plates, as the 3D mock-up's (hanging
+    #: ``flange_depth`` below the rail top, ``flange_thickness`` thick).
+    flange_depth: PositiveFloat = 0.02
+    flange_thickness: PositiveFloat = 0.02
     hoisted_mass: NonNegativeFloat = 0.0
     hoist: Literal["rigid", "rope"] = "rigid"
     rope_length: PositiveFloat | None = None
@@ -151,15 +155,25 @@ class FrameCraneModel(Section):
         if self.fine > self.size:
             raise ValueError("fine must not exceed size")
         if self.wheel_zones == "solid":
+            if self.flanges and not self.flange_depth < self.rail_height:
+                raise ValueError(
+                    f"flange_depth = {self.flange_depth} must be < rail_height = "
+                    f"{self.rail_height} (the flanges would reach the girder's top)"
+                )
+            reach = 0.5 * self.rail_width + self.flange_clearance + self.flange_thickness
+            if self.flanges and not reach < 0.5 * self.girder_spacing:
+                raise ValueError(
+                    f"flange_thickness = {self.flange_thickness}: the inner flanges reach "
+                    f"{reach:g} from their rail's axis, past the crane's centre plane x = 0"
+                )
             for key, bad in (
-                ("flanges", self.flanges),
                 ("hoist", self.hoist == "rope"),
                 ("girder", self.girder is not None),
             ):
                 if bad:
                     raise ValueError(
-                        f"{key}: not with wheel_zones = 'solid' yet (its solid zones have no "
-                        "flanges, its beams run implicit and a rope needs an explicit side, "
+                        f"{key}: not with wheel_zones = 'solid' yet (its beams run implicit "
+                        "and a rope needs an explicit side, "
                         "the joints sit on the girder-and-rail section's centroid)"
                     )
         return self
