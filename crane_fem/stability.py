@@ -84,6 +84,44 @@ def _add_offdiagonal_penalty(
     A.assemble()
 
 
+def max_frequency_consistent(model: StructuralModel) -> float:
+    """ω_max = √λ_max(M⁻¹ K) in rad/s with the consistent mass M (collective): the
+    generalized problem K x = λ M x by SLEPc's Krylov–Schur (options prefix
+    ``crane_fem_dtcrit_m_``), M⁻¹ by conjugate gradients (M is well conditioned). Fixed DOFs
+    (unit rows in both) give λ = 1, below any structural λ_max."""
+    if model.M is None:
+        raise ValueError("the model has no consistent mass matrix")
+    eps = SLEPc.EPS().create(model.comm)
+    try:
+        eps.setOptionsPrefix("crane_fem_dtcrit_m_")
+        eps.setOperators(model.K, model.M)
+        eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
+        eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
+        eps.setTolerances(1e-10, 10000)
+        eps.setDimensions(1)
+        ksp = eps.getST().getKSP()
+        ksp.setType("cg")
+        ksp.getPC().setType("jacobi")
+        ksp.setTolerances(rtol=1e-14, atol=0.0, max_it=2000)
+        eps.setFromOptions()
+        eps.solve()
+        if eps.getConverged() < 1:
+            raise RuntimeError("SLEPc did not converge on λ_max(M⁻¹K), consistent M")
+        lam = float(eps.getEigenvalue(0).real)
+    finally:
+        eps.destroy()
+    return math.sqrt(max(lam, 0.0))
+
+
+def newmark_critical_step(omega_max: float, beta: float, gamma: float) -> float:
+    """Newmark (β, γ)'s largest stable step for ω_max, undamped: ΔT ω_max ≤ (γ/2 − β)^(−1/2)
+    (Hughes, The Finite Element Method, §9.1.2; 2/ω_max for β = 0, γ = ½, the central
+    difference); unbounded where β ≥ γ/2 (unconditionally stable)."""
+    if beta >= 0.5 * gamma or omega_max <= 0.0:
+        return math.inf
+    return 1.0 / (math.sqrt(0.5 * gamma - beta) * omega_max)
+
+
 def critical_time_step(omega_max: float, alpha: float = 0.0, beta: float = 0.0) -> float:
     """Largest stable central-difference step for ω_max with Rayleigh damping C = αM + βK.
 

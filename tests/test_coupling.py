@@ -532,6 +532,28 @@ def test_explicit_dt_above_critical_is_an_error(shared_tmp) -> None:
     assert math.isfinite(0.1)
 
 
+def test_central_difference_implicit_side_above_its_critical_step_is_refused(shared_tmp) -> None:
+    """Newmark β = 0, γ = ½ (the central difference) on the implicit half is stable only for
+    ΔT ω_max ≤ 2. The half's lumped bar (100 elements of h = 5e-3, c = 1) has ω_max just below
+    2c/h (by sin(π n / (2 n + 2)) → 1: within 1e-4 here), so its critical step lies in
+    [h/c, 1.0001 h/c]; Δt = 0.9 h/c allows m = 1 only, and m = 2 is refused before any step,
+    naming coupling.ratio and the largest ratio that fits."""
+    sc = make_scenario(
+        model={"elements": 200, "split": 0.5},
+        subdomain=SUBS,
+        coupling={"method": "gc", "ratio": 2},
+        newmark={"beta": 0.0, "gamma": 0.5, "mass": "lumped"},
+        time={"end": 0.1},
+    )
+    with pytest.raises(ScenarioError, match=r"coupling.ratio = 2: the macro step") as err:
+        run(sc, shared_tmp)
+    msg = str(err.value)
+    assert "take coupling.ratio <= 1" in msg, msg
+    limit = float(msg.split("critical step ")[1].split(" s")[0])
+    h = 1.0 / 200
+    assert h <= limit <= 1.0001 * h, limit
+
+
 @pytest.mark.mpi
 @pytest.mark.parametrize(
     "case",

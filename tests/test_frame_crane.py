@@ -266,8 +266,10 @@ BAD: dict[str, tuple[list[str], list[str]]] = {
     ),
     "zones_overlap": (["--set", "model.zone_margin=0.4"], ["model.zone_margin", "overlap"]),
     "solid_flanges_too_deep": (
-        ["--set", "model.wheel_zones='solid'", "--set", "model.flanges=true"]
-        + ["--set", "model.flange_depth=0.05"],
+        [
+            *("--set", "model.wheel_zones='solid'", "--set", "model.flanges=true"),
+            *("--set", "model.flange_depth=0.05"),
+        ],
         ["model", "flange_depth = 0.05", "rail_height = 0.04"],
     ),
     "girder_box_incomplete": (

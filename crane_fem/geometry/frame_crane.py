@@ -220,9 +220,16 @@ def _flanged_wheel(
             )
         )
         parts.append(
-            occ.addBox(min(xw, outer), y0, rail_top + 0.5 * hw, abs(outer - xw), m.wheel_length, 0.5 * hw)
+            occ.addBox(
+                min(xw, outer), y0, rail_top + 0.5 * hw, abs(outer - xw), m.wheel_length, 0.5 * hw
+            )
         )
-        corners = [(y0, low), (y0 + m.wheel_length, low), (y0 + m.wheel_length, rail_top), (y0, rail_top)]
+        corners = [
+            (y0, low),
+            (y0 + m.wheel_length, low),
+            (y0 + m.wheel_length, rail_top),
+            (y0, rail_top),
+        ]
         points = [occ.addPoint(face, y, z) for y, z in corners]
         lines = [occ.addLine(points[i], points[(i + 1) % 4]) for i in range(4)]
         rects.append((side, face, occ.addPlaneSurface([occ.addCurveLoop(lines)])))
@@ -235,7 +242,14 @@ def _flanged_wheel(
     patches = []
     eps = 1e-6
     for side, face, _ in rects:
-        box = (face - eps, y0 - eps, rail_top - m.flange_depth - eps, face + eps, y0 + m.wheel_length + eps, rail_top + eps)
+        box = (
+            face - eps,
+            y0 - eps,
+            rail_top - m.flange_depth - eps,
+            face + eps,
+            y0 + m.wheel_length + eps,
+            rail_top + eps,
+        )
         found = [t for _, t in gmsh.model.getEntitiesInBoundingBox(*box, 2)]
         if len(found) != 1:
             raise RuntimeError(f"frame crane: the {side} flange's face of a wheel not found")
@@ -359,7 +373,12 @@ def _solid_zones(
             named = (
                 ["zone_{k}_a", "zone_{k}_b", "rail_top_{k}", "rail_in_{k}", "rail_out_{k}"]
                 if stem == "zone"
-                else ["wheel_bottom_{k}", "wheel_top_{k}", "flange_face_in_{k}", "flange_face_out_{k}"]
+                else [
+                    "wheel_bottom_{k}",
+                    "wheel_top_{k}",
+                    "flange_face_in_{k}",
+                    "flange_face_out_{k}",
+                ]
             )
             faces = [f.format(k=k) for f in named if (2, f.format(k=k)) in entity]
             entity[3, v] = gmsh.model.addDiscreteEntity(3, -1, [entity[2, f] for f in faces])

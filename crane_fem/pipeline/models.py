@@ -18,7 +18,12 @@ from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.preload import BondedPoints, Preload, bonded_preload, static_preload
 from crane_fem.preload.mixed import mixed_preload
 from crane_fem.scenario import BlockModel, FrameModel, GmshModel, Scenario
-from crane_fem.stability import critical_time_step, max_frequency
+from crane_fem.stability import (
+    critical_time_step,
+    max_frequency,
+    max_frequency_consistent,
+    newmark_critical_step,
+)
 from crane_fem.subdomains import Subdomain, create_subdomain
 
 __all__ = ["TOUCHING", "ModelStage", "bonded_points", "build_models"]
@@ -217,6 +222,35 @@ def _rope_frequency(sub: Subdomain, ropes: RopeSpec) -> float:
     return float(np.max(np.sqrt(ropes.stiffness * (1.0 / m_a + 1.0 / m_b)), initial=0.0))
 
 
+def _check_newmark_step(
+    sc: Scenario, implicit: Subdomain, scheme: str, ratio: int, dt: float, dT: float
+) -> None:
+    """A conditionally stable Newmark side (β < γ/2: β = 0 is the central difference) must
+    take its macro step within its own critical step (collective; nothing computed for the
+    default average acceleration). Raises ScenarioError naming coupling.ratio."""
+    beta, gamma = sc.newmark.beta, sc.newmark.gamma
+    if beta >= 0.5 * gamma:
+        return
+    if scheme != "newmark":
+        raise ScenarioError(
+            f"newmark.beta = {beta:g} < newmark.gamma / 2: a conditionally stable Newmark is "
+            f"not checked on the reduced side ('{scheme}'); take newmark.beta >= {0.5 * gamma:g}"
+        )
+    model = implicit.model
+    consistent = sc.newmark.mass == "consistent" and model.M is not None
+    omega = max_frequency_consistent(model) if consistent else max_frequency(model)
+    limit = newmark_critical_step(omega, beta, gamma)
+    if dT > limit:
+        most = max(0, math.floor(limit / dt))
+        raise ScenarioError(
+            f"coupling.ratio = {ratio}: the macro step ΔT = {dT:.4e} s exceeds the critical "
+            f"step {limit:.4e} s of the implicit subdomain '{implicit.name}' under "
+            f"newmark.beta = {beta:g} (conditionally stable: ΔT ω_max ≤ (γ/2 − β)^(−1/2), "
+            f"ω_max = {omega:.4e} rad/s); "
+            + (f"take coupling.ratio <= {most}" if most >= 1 else "raise newmark.beta")
+        )
+
+
 def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
     """Preload, subdomains and steps (collective)."""
     mdl, mat = sc.model, sc.materials[0][1]  # E, ν, ρ where uniform (else mesh.materials)
@@ -320,6 +354,8 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             )
         n_macro = max(1, math.ceil(sc.time.end / dT - 1e-9))
         end = n_macro * ratio
+        assert implicit is not None
+        _check_newmark_step(sc, implicit, implicit_specs[0][1], ratio, dt, dT)
         sample = sample_steps(sc, dt, ratio)
     else:
         # A monolithic reference records at the coupled run's sampling instants: one macro
