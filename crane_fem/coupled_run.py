@@ -228,7 +228,7 @@ def _summary_head(sc: Scenario, sim: Simulation, comm: MPI.Comm) -> dict[str, An
     n_steps = md.n_macro * it.system.m if md.coupled else md.n_steps
     summary: dict[str, Any] = {
         "scenario": sc.name,
-        "method": md.method,
+        "method": md.label,
         "ratio": md.ratio,
         "explicit_subdomains": md.explicit_names,
         "implicit_subdomains": md.implicit_names,

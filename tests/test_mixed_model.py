@@ -142,8 +142,17 @@ def write(path: Path, text: str) -> Path:
     return path
 
 
+#: The coupled run (the solid explicit, the beams Newmark) and the fully explicit one (the
+#: beams under the central difference at the solid's step, through the joints every step).
+COUPLINGS = {
+    "gc-mean": '[coupling]\nmethod = "gc-mean"\nratio = 4\n',
+    "monolithic": '[coupling]\nmethod = "monolithic"\nratio = 4\n',
+}
+
+
 @pytest.mark.serial  # the same scene's two-rank run is test_two_ranks_equal_serial's
-def test_uniform_velocity_stays_a_rigid_translation(shared_tmp: Path) -> None:
+@pytest.mark.parametrize("coupling", list(COUPLINGS))
+def test_uniform_velocity_stays_a_rigid_translation(shared_tmp: Path, coupling: str) -> None:
     """The free bar thrown at [1, 0.5, −0.2] m/s, no gravity: the joints carry a rigid motion
     exactly, so the kinetic energy stays ½ m |v|² (m = ρ × 0.07 m³; the beams' consistent
     mass and the solid's lumped one integrate a translation exactly) and the strain energy
@@ -158,10 +167,12 @@ def test_uniform_velocity_stays_a_rigid_translation(shared_tmp: Path) -> None:
         support="",
         loading="",
         initial="[initial]\nvelocity = [1.0, 0.5, -0.2]\n",
+        coupling=COUPLINGS[coupling],
     )
     path = write(shared_tmp / "thrown.toml", toml)
-    out = shared_tmp / "thrown"
+    out = shared_tmp / f"thrown_{coupling}"
     assert main(["run", str(path), "-o", str(out), "--no-progress"]) == 0
+    assert json.loads((out / "summary.json").read_text())["method"] == coupling
     h = read_history(out / "history.csv")
     kinetic = 0.5 * RHO * SIDE * SIDE * 7.0 * (1.0 + 0.25 + 0.04)
     assert np.max(np.abs(h["kinetic"] - kinetic)) <= 1e-10 * kinetic
@@ -173,14 +184,18 @@ def test_uniform_velocity_stays_a_rigid_translation(shared_tmp: Path) -> None:
     assert summary["energy_balance_error"] <= 1e-8
 
 
-def test_two_ranks_equal_serial(shared_tmp: Path, tmp_path: Path) -> None:
-    """The cantilever (the first beam's end clamped) under gravity from rest: its energy
-    balance closes (≤ 1e-8 of the energies' scale), the support carries a growing load; on
-    two ranks, the history equals the serial one within 1e-8 of each column's scale."""
+@pytest.mark.parametrize("coupling", list(COUPLINGS))
+def test_two_ranks_equal_serial(shared_tmp: Path, tmp_path: Path, coupling: str) -> None:
+    """The cantilever (the first beam's end clamped) under gravity from rest, coupled and
+    fully explicit: its energy balance closes (≤ 1e-8 of the energies' scale), the support
+    carries a growing load; on two ranks, the history equals the serial one within 1e-8 of
+    each column's scale."""
     mesh = write_bar(shared_tmp / "bar.msh")
-    path = write(shared_tmp / "cantilever.toml", scenario(mesh))
+    path = write(
+        shared_tmp / f"cantilever_{coupling}.toml", scenario(mesh, coupling=COUPLINGS[coupling])
+    )
     if COMM.size == 1:
-        out = shared_tmp / "cantilever"
+        out = shared_tmp / f"cantilever_{coupling}"
         assert main(["run", str(path), "-o", str(out), "--no-progress"]) == 0
         summary = json.loads((out / "summary.json").read_text())
         assert summary["energy_balance_error"] <= 1e-8
@@ -404,6 +419,25 @@ def test_flanges_of_the_solid_wheel_zones(shared_tmp: Path) -> None:
         pa, pb = flanges[a]["peak_force_N"], flanges[b]["peak_force_N"]
         assert abs(pa - pb) <= 1e-9 * pa
     assert s["energy_balance_error"] <= 1e-8
+
+
+@pytest.mark.serial  # two checks (mesh, subdomains, ω_max); no integration
+def test_fully_explicit_step_within_the_beams_critical_step(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """The mixed crane fully explicit (``coupling.method = "monolithic"``) steps both element
+    kinds at one Δt: within the beams' central-difference limit 2/ω_max too. With the wheel
+    stubs' rotary inertia × 0.01 their thickness-shear mode sets it (6.16e-7 s, the solids'
+    2.06e-6 s): Δt = 1e-6 s is refused naming time.dt, which the coupled run (the beams
+    Newmark, unconditionally stable) accepts."""
+    demo = Path(__file__).parent.parent / "demos" / "frame_crane_solid.toml"
+    common = ["--set", "model.rotary_scale=0.01", "--set", "time.dt=1e-6"]
+    common += ["--unset", "time.dt_factor"]
+    assert main(["check", str(demo), *common]) == 0
+    capsys.readouterr()
+    code = main(["check", str(demo), *common, "--set", "coupling.method='monolithic'"])
+    line = error_line(code, capsys)
+    assert "time.dt = 1.0000e-06 s exceeds the critical step 6.16" in line, line
 
 
 @pytest.mark.serial  # five short runs; the methods' two-rank behaviour: test_coupling.py

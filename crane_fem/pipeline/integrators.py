@@ -3,6 +3,7 @@ coupled system and the coupling method (a :class:`~crane_fem.coupling.MacroStep`
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -231,20 +232,26 @@ def build_integrators(
         load = body_load(sc, mesh, sub)
         nm = sc.newmark
         spec = next(s for s in sc.subdomain if s.implicit) if sc.subdomain else None
-        if spec is not None and spec.scheme == "newmark-reduced" and models.method != "monolithic":
+        full = models.method == "monolithic" or models.beams_explicit
+        if spec is not None and spec.scheme == "newmark-reduced" and not full:
             I, reduction = _reduced_side(sc, models, cons, sub, load, u0, v0)  # noqa: E741
         else:
-            I = Newmark(  # noqa: E741
-                sub.model,
-                load,
-                models.dT,
-                u0,
-                v0,
-                nm.beta,
-                nm.gamma,
-                cons.l_implicit if coupled else None,
-                consistent_mass=nm.mass == "consistent",
-            )
+            # (A mixed model's fully explicit run: its beams under the central difference.)
+            beta, gamma = (0.0, 0.5) if models.beams_explicit else (nm.beta, nm.gamma)
+            with warnings.catch_warnings():
+                if models.beams_explicit:  # (within its critical step: build_models)
+                    warnings.filterwarnings("ignore", "Newmark beta = 0", RuntimeWarning)
+                I = Newmark(  # noqa: E741
+                    sub.model,
+                    load,
+                    models.dT,
+                    u0,
+                    v0,
+                    beta,
+                    gamma,
+                    cons.l_implicit if coupled else None,
+                    consistent_mass=nm.mass == "consistent" and not models.beams_explicit,
+                )
     grid = TimeGrid(models.dt, models.end_steps, models.sample_steps)
     system = CoupledSystem(E, I, models.ratio, models.dt, grid)
     method: MacroStep

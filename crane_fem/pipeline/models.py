@@ -66,6 +66,17 @@ class ModelStage:
     #: solids' is ``preload``); None otherwise.
     joints: JointRows | None = None
     beam_preload: Preload | None = None
+    #: A mixed model's fully explicit run (``coupling.method = "monolithic"``): its beams
+    #: under the central difference (Newmark β = 0, γ = ½, lumped mass) at the solids' step,
+    #: through the joints' rows every step (GC at m = 1: the monolithic constrained central
+    #: difference, tests/test_coupling.py), Δt within both sides' critical steps.
+    beams_explicit: bool = False
+
+    @property
+    def label(self) -> str:
+        """The method as the user named it (``monolithic`` for a mixed model's fully
+        explicit run, which ``method`` runs as GC at m = 1)."""
+        return "monolithic" if self.beams_explicit else self.method
 
     @property
     def coupled(self) -> bool:
@@ -80,6 +91,10 @@ class ModelStage:
 def _specs(sc: Scenario, mesh: MeshStage) -> tuple[str, int, list[tuple[str, str, list[str]]]]:
     """(method, ratio, [(name, scheme, groups)]) of the scenario's subdomains."""
     cpl = sc.coupling
+    if cpl is not None and cpl.method == "monolithic" and mesh.beams is not None:
+        # A mixed model fully explicit: its two element kinds' subdomains, both explicit,
+        # through the joints every step (build_models: ``beams_explicit``).
+        return "gc", 1, [(s.name, str(s.scheme), list(s.groups)) for s in sc.subdomain]
     if cpl is not None and cpl.method == "monolithic":
         groups = list(mesh.tagged.cell_groups)
         return "monolithic", 1, [("all", cpl.monolithic_scheme, groups)]
@@ -256,6 +271,8 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
     mdl, mat = sc.model, sc.materials[0][1]  # E, ν, ρ where uniform (else mesh.materials)
     tagged, fixed = mesh.tagged, mesh.fixed_vertices
     method, ratio, specs = _specs(sc, mesh)
+    cpl = sc.coupling
+    beams_explicit = mesh.beams is not None and cpl is not None and cpl.method == "monolithic"
     rayleigh = sc.rayleigh_coefficients
     preload = None
     if mesh.crane is not None and np.any(np.asarray(sc.loading.gravity) != 0.0):
@@ -309,7 +326,7 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
             src.fields,
             own if own is not None else rayleigh,
             src.fixed_vertices,
-            consistent_mass=sc.newmark.mass == "consistent",
+            consistent_mass=sc.newmark.mass == "consistent" and not beams_explicit,
             pinned_vertices=src.pinned_vertices,
             point_masses=src.point_masses,
             held_rotations=src.held_rotations,
@@ -340,6 +357,9 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
         # the explicit side's (bounded as the root of their squares' sum: an end may also
         # sit on a beam).
         omega_max = math.hypot(omega_max, _rope_frequency(explicit, fc.ropes))
+    if beams_explicit:  # the beams' central difference too: the larger ω_max sets Δt
+        assert implicit is not None
+        omega_max = max(omega_max, max_frequency(implicit.model))
     dt_critical = critical_time_step(omega_max, *rayleigh)
     dt = _time_steps(sc, explicit, dt_critical)
     coupled = explicit is not None and implicit is not None
@@ -355,8 +375,12 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
         n_macro = max(1, math.ceil(sc.time.end / dT - 1e-9))
         end = n_macro * ratio
         assert implicit is not None
-        _check_newmark_step(sc, implicit, implicit_specs[0][1], ratio, dt, dT)
-        sample = sample_steps(sc, dt, ratio)
+        if beams_explicit:  # (its step within the beams' own: dt_critical above)
+            assert cpl is not None
+            sample = sample_steps(sc, dt, cpl.ratio)
+        else:
+            _check_newmark_step(sc, implicit, implicit_specs[0][1], ratio, dt, dT)
+            sample = sample_steps(sc, dt, ratio)
     else:
         # A monolithic reference records at the coupled run's sampling instants: one macro
         # step per sampling interval (the two histories share one time grid).
@@ -383,4 +407,5 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
         omega_max,
         joints,
         beam_preload,
+        beams_explicit,
     )

@@ -156,7 +156,10 @@ class SimulationCheck:
         """``gc, m = 100: cd-lagrange on contact_zones, newmark on structure; Δt = …`` or
         ``monolithic cd-lagrange; Δt = …``."""
         sides = [s for s in (self.explicit, self.implicit) if s is not None]
-        if self.explicit is not None and self.implicit is not None:
+        if self.method == "monolithic" and len(sides) == 2:  # a mixed model fully explicit
+            parts = ", ".join(f"{scheme} on {', '.join(names)}" for scheme, names in sides)
+            head = f"monolithic: {parts}, through the joints every step"
+        elif self.explicit is not None and self.implicit is not None:
             parts = ", ".join(f"{scheme} on {', '.join(names)}" for scheme, names in sides)
             fine = f" ({self.fine_ratio} at impacts)" if self.fine_ratio else ""
             head = f"{self.method}, m = {self.ratio}{fine}: {parts}"
@@ -254,6 +257,8 @@ def check_simulation(sc: Scenario, comm: MPI.Comm) -> SimulationCheck:
             explicit = (_scheme(sc, models.explicit_names, "cd-lagrange"), models.explicit_names)
         if models.implicit is not None:
             implicit = (_scheme(sc, models.implicit_names, "newmark"), models.implicit_names)
+        if models.beams_explicit:
+            implicit = ("central difference", models.implicit_names)
         if not models.coupled and sc.coupling is not None and sc.coupling.method == "monolithic":
             only = (sc.coupling.monolithic_scheme, ["all"])
             explicit, implicit = (only, None) if explicit is not None else (None, only)
@@ -262,7 +267,7 @@ def check_simulation(sc: Scenario, comm: MPI.Comm) -> SimulationCheck:
         assert side is not None
         dofs = int(side.model.K.getSize()[0])
         return SimulationCheck(
-            models.method,
+            models.label,
             models.ratio,
             explicit,
             implicit,

@@ -317,10 +317,14 @@ class Scenario(Section):
                     )
                 used[name] = i
         self._initial_velocity_only()
-        if self.coupling is not None and self.coupling.method == "monolithic":
+        if (
+            self.coupling is not None
+            and self.coupling.method == "monolithic"
+            and self.coupling.monolithic_scheme != "cd-lagrange"
+        ):
             raise ValueError(
-                "coupling.method: a mixed model runs coupled, its solids explicit and its "
-                "beams implicit through their joints ('monolithic' is not built for it)"
+                "coupling.scheme: a mixed model's monolithic run is fully explicit ('cd-lagrange'"
+                ": its solids carry the contacts, its beams the central difference)"
             )
         if self.coupling is not None and self.coupling.interface_truncation:
             raise ValueError(
