@@ -42,6 +42,9 @@ from scipy.sparse.csgraph import connected_components
 
 from crane_fem.contact.constraints import ContactSet, TangentRows
 from crane_fem.contact.surface import (
+    BRUTE_FORCE_PAIRS,
+    INSIDE_TOL,
+    STRICT_TOL,
     Pairing,
     Surface,
     canonical,
@@ -51,7 +54,7 @@ from crane_fem.contact.surface import (
     surface_rows,
 )
 from crane_fem.errors import CraneFemError, ScenarioError
-from crane_fem.kernels.projection import offsets_over_pairings
+from crane_fem.kernels.projection import offsets_over_pairings, select_triangles
 
 __all__ = [
     "REPAIR_FRACTION",
@@ -83,6 +86,79 @@ OPEN_GAP = 1.0e3
 #: Barycentric coordinates within this of a vertex's are that vertex's exactly (t = 0: a
 #: point on a surface vertex has the node-to-node row of that pair).
 SNAP_TOL = 1e-9
+
+
+@dataclass(frozen=True)
+class _Batch:
+    """The families whose points are projected on every triangle of their surface
+    (:func:`~crane_fem.contact.surface.pair_points`' brute-force case), projected in one
+    compiled call: their triangles over the set's vertex slots, one after another, each
+    point a candidate of its own family's only (in increasing order, as pair_points takes
+    them: the same choice, bit for bit, without a call per family)."""
+
+    families: list[int]
+    points: IntArray  # (P,) slots of the batched families' points, family after family
+    triangles: IntArray  # (T, 3) slots of their triangles' vertices
+    candidates: IntArray  # (P, k) global triangle indices, −1 after a family's last
+    first: IntArray  # (n + 1,) each family's first point, then P
+    tri0: IntArray  # (n,) each family's first triangle
+
+    @staticmethod
+    def of(families: list[Family], slot_p: list[IntArray], slot_s: list[IntArray]) -> _Batch:
+        js = [
+            j
+            for j, f in enumerate(families)
+            if f.vertices is None and f.p * f.surface.triangles.shape[0] <= BRUTE_FORCE_PAIRS
+        ]
+        n_tri = [families[j].surface.triangles.shape[0] for j in js]
+        tri0 = np.concatenate([[0], np.cumsum(n_tri)]).astype(np.int64)
+        k = max(n_tri, default=0)
+        cand = np.full((sum(families[j].p for j in js), k), -1, dtype=np.int64)
+        first = np.zeros(len(js) + 1, dtype=np.int64)
+        for i, j in enumerate(js):
+            first[i + 1] = first[i] + families[j].p
+            cand[first[i] : first[i + 1], : n_tri[i]] = np.arange(tri0[i], tri0[i + 1])
+        triangles = [slot_s[j][families[j].surface.triangles] for j in js]
+        return _Batch(
+            js,
+            np.concatenate([slot_p[j] for j in js] or [np.zeros(0, np.int64)]).astype(np.int64),
+            np.concatenate(triangles or [np.zeros((0, 3), np.int64)])
+            .astype(np.int64)
+            .reshape(-1, 3),
+            cand,
+            first,
+            tri0[:-1],
+        )
+
+    def project(self, x: FloatArray) -> dict[int, Pairing]:
+        """The batched families' pairings at the coordinates ``x`` of the set's vertices,
+        by family index (not collective)."""
+        n_p = self.points.size
+        if n_p == 0:
+            return {}
+        t = np.full(n_p, -1, dtype=np.int64)
+        xi, normal, gap = np.zeros((n_p, 3)), np.zeros((n_p, 3)), np.full(n_p, np.inf)
+        xc = np.ascontiguousarray(x, dtype=np.float64)
+        select_triangles(
+            np.ascontiguousarray(xc[self.points]),
+            xc,
+            self.triangles,
+            self.candidates,
+            np.inf,
+            INSIDE_TOL,
+            STRICT_TOL,
+            t,
+            xi,
+            normal,
+            gap,
+        )
+        out = {}
+        for i, j in enumerate(self.families):
+            a, b = self.first[i], self.first[i + 1]
+            tj = t[a:b]
+            local = np.where(tj >= 0, tj - self.tri0[i], -1)
+            out[j] = Pairing(local, xi[a:b], normal[a:b], gap[a:b])
+        return out
 
 
 class SlidingError(CraneFemError):
@@ -244,6 +320,7 @@ class SlidingContacts:
         self.X = vertex_coordinates(sub, self.ids)
         self._slot_p = [np.searchsorted(self.ids, f.points) for f in families]
         self._slot_s = [np.searchsorted(self.ids, f.surface.vertex_ids) for f in families]
+        self._batch = _Batch.of(families, self._slot_p, self._slot_s)
         edges = [self._shortest_edge(f.surface) for f in families]
         self.threshold = REPAIR_FRACTION * min(edges, default=np.inf)
         self.slide_tol = SLIDE_TOL * min(edges, default=np.inf)
@@ -552,7 +629,7 @@ class SlidingContacts:
         of ``projected``'s families taken from it; not collective: every rank holds the same
         ``x``)."""
         pairings = []
-        done = projected or {}
+        done = self._batch.project(x) | (projected or {})
         for j, (f, sp, ss) in enumerate(
             zip(self.families, self._slot_p, self._slot_s, strict=True)
         ):

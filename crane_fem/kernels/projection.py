@@ -53,7 +53,33 @@ def select_triangles(
     ≥ −``inside_tol``) within ``reach`` of its plane, the nearest along its normal (the
     lowest index among equals); written into ``triangle`` (−1: none, the other outputs
     then untouched), ``xi`` (clipped to [0, 1] and summed to 1), ``normal`` (unit, of the
-    triangle's orientation) and ``gap`` (signed distance along it). Not collective."""
+    triangle's orientation) and ``gap`` (signed distance along it). Not collective.
+
+    Where the pairs outnumber the triangles, each triangle's centroid c, unit normal and
+    circumradius R about c are formed first, and a pair whose point lies farther than
+    1.01 R from c within the triangle's plane is passed over: a projection with barycentric
+    coordinates ≥ −ε lies within (1 + 3ε) R of c (the farthest at a vertex of that
+    polytope, (1 + 2ε, −ε, −ε): c + (1 + 3ε)(v₀ − c)), so for ε = ``inside_tol`` ≤ 3e-3 no
+    pair that could be chosen is passed over: the same choice, with a fifth of the
+    arithmetic on a rail's top."""
+    n_t = triangles.shape[0]
+    cull = x.shape[0] * candidates.shape[1] >= n_t and inside_tol <= 3e-3
+    box = np.empty((n_t if cull else 0, 7))
+    if cull:
+        for t in range(n_t):
+            a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+            c0 = (xyz[a, 0] + xyz[b, 0] + xyz[c, 0]) / 3.0
+            c1 = (xyz[a, 1] + xyz[b, 1] + xyz[c, 1]) / 3.0
+            c2 = (xyz[a, 2] + xyz[b, 2] + xyz[c, 2]) / 3.0
+            r2 = 0.0
+            for v in (a, b, c):
+                d0, d1, d2 = xyz[v, 0] - c0, xyz[v, 1] - c1, xyz[v, 2] - c2
+                r2 = max(r2, d0 * d0 + d1 * d1 + d2 * d2)
+            n0, n1, n2 = _edges(xyz, triangles, t)[6:]
+            norm = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+            box[t, 0], box[t, 1], box[t, 2] = c0, c1, c2
+            box[t, 3], box[t, 4], box[t, 5] = n0 / norm, n1 / norm, n2 / norm
+            box[t, 6] = 1.0201 * r2
     for i in range(x.shape[0]):
         best_rank = 2
         best_gap = np.inf
@@ -65,6 +91,13 @@ def select_triangles(
             t = candidates[i, jj]
             if t < 0:
                 break
+            if cull:
+                d0 = x[i, 0] - box[t, 0]
+                d1 = x[i, 1] - box[t, 1]
+                d2 = x[i, 2] - box[t, 2]
+                dn = d0 * box[t, 3] + d1 * box[t, 4] + d2 * box[t, 5]
+                if d0 * d0 + d1 * d1 + d2 * d2 - dn * dn > box[t, 6]:
+                    continue
             a = triangles[t, 0]
             e10, e11, e12, e20, e21, e22, n0, n1, n2 = _edges(xyz, triangles, t)
             nn = n0 * n0 + n1 * n1 + n2 * n2
