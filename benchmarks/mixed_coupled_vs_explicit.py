@@ -47,12 +47,21 @@ def main() -> None:
     )
     ap.add_argument("--reuse", action="store_true")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    ap.add_argument(
+        "--coupled",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a setting of the coupled run only (its own directory), e.g. coupling.fine_ratio=4",
+    )
     args = ap.parse_args()
     out: Path = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
     scene: Path = args.scene.resolve()
     started = time.strftime("%Y-%m-%d %H:%M:%S")
     variant = {k: tomllib.loads(f"v = {v}")["v"] for k, v in (kv.split("=", 1) for kv in args.set)}
+    own = {k: tomllib.loads(f"v = {v}")["v"] for k, v in (kv.split("=", 1) for kv in args.coupled)}
+    name = "coupled" + "".join(f"_{k.split('.')[-1]}{v}" for k, v in own.items())
 
     ref_settings = explicit_settings(scene, base=variant)
     ref = _run(scene, out / "explicit", ref_settings, args.reuse)
@@ -68,7 +77,7 @@ def main() -> None:
             if result.status != "completed":
                 raise SystemExit(f"ensemble member {label}: {result.status} {result.error}")
             members[d.name] = json.loads((d / "summary.json").read_text())
-    coupled = _run(scene, out / "coupled", {"output.xdmf": False, **variant}, args.reuse)
+    coupled = _run(scene, out / name, {"output.xdmf": False, **variant, **own}, args.reuse)
 
     member_checks = [judge_runs(m, ref) for m in members.values()]
     checks = with_spread(judge_runs(coupled, ref), member_checks)
@@ -89,12 +98,13 @@ def main() -> None:
     t_ref, t_cpl = ref["_process_s"], coupled["_process_s"]
     loop_ref, loop_cpl = ref["wall_time_integration_s"], coupled["wall_time_integration_s"]
     command = "`.venv/bin/python benchmarks/mixed_coupled_vs_explicit.py`" + "".join(
-        f" --set {kv}" for kv in args.set
+        [f" --set {kv}" for kv in args.set] + [f" --coupled {kv}" for kv in args.coupled]
     )
     lines = [
         f"# {scene.name}: coupled against its own fully explicit run, THEORY.md §8 (b)",
         "",
-        f"Command: {command}" + (f" --out {args.out} --report {args.report}" if args.set else ""),
+        f"Command: {command}"
+        + (f" --out {args.out} --report {args.report}" if args.set or args.coupled else ""),
         "",
         f"Started {started}"
         + (" (--reuse: the runs of an earlier start)" if args.reuse else "")
@@ -104,7 +114,8 @@ def main() -> None:
         "|---|---|---|---|---|",
         f"| fully explicit (reference) | {ref['method']} | {ref['micro_steps']} | "
         f"{loop_ref:.1f} | {t_ref:.1f} |",
-        f"| coupled | {coupled['method']}, m = {coupled['ratio']} | {coupled['micro_steps']} | "
+        f"| coupled{''.join(f', {k} = {v}' for k, v in own.items())} | "
+        f"{coupled['method']}, m = {coupled['ratio']} | {coupled['micro_steps']} | "
         f"{loop_cpl:.1f} | {t_cpl:.1f} |",
         "",
         f"Coupled / fully explicit: time loop {loop_cpl / loop_ref:.3f}, whole process "
