@@ -17,24 +17,21 @@ DIR. Judged as ``crane-fem bench ensemble`` judges (``crane_fem.tolerances``).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 import tomllib
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from mixed_vs_mockup import _fmt, _run
+from mixed_vs_mockup import _ensemble, _fmt, _run
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "demos" / "frame_crane_solid.toml"
-MEMBERS = ("x0.995", "x1.005", "dt0.5")
 
 
 def main() -> None:
     import crane_fem  # noqa: F401  (MPI before the study's modules)
     from crane_fem.bench.common import explicit_settings
-    from crane_fem.study import run_ensemble_members
     from crane_fem.tolerances import judge_runs, with_spread
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -65,18 +62,7 @@ def main() -> None:
 
     ref_settings = explicit_settings(scene, base=variant)
     ref = _run(scene, out / "explicit", ref_settings, args.reuse)
-    members_dir = out / "ensemble"
-    if args.reuse and all((members_dir / m / "summary.json").exists() for m in MEMBERS):
-        members = {m: json.loads((members_dir / m / "summary.json").read_text()) for m in MEMBERS}
-    else:
-        done = run_ensemble_members(
-            scene, ref_settings, float(ref["sampling_interval_s"]), members_dir
-        )
-        members = {}
-        for label, d, result in done:
-            if result.status != "completed":
-                raise SystemExit(f"ensemble member {label}: {result.status} {result.error}")
-            members[d.name] = json.loads((d / "summary.json").read_text())
+    members = _ensemble(scene, ref_settings, ref, out / "ensemble", args.reuse)
     coupled = _run(scene, out / name, {"output.xdmf": False, **variant, **own}, args.reuse)
 
     member_checks = [judge_runs(m, ref) for m in members.values()]

@@ -71,6 +71,29 @@ def _run(scene: Path, d: Path, settings: dict[str, Any], reuse: bool) -> dict[st
     return s
 
 
+def _ensemble(
+    scene: Path, settings: dict[str, Any], ref: dict[str, Any], d: Path, reuse: bool
+) -> dict[str, dict[str, Any]]:
+    """The summaries of the reference run's conditioning ensemble (record × 0.995, × 1.005,
+    Δt × ½: ``crane_fem.study.run_ensemble_members``, two at a time on a local dask cluster,
+    sampled at the reference's instants) in ``d``, by member; ``reuse``: those already
+    there."""
+    from crane_fem.study import run_ensemble_members
+
+    names = ("x0.995", "x1.005", "dt0.5")
+    if reuse and all((d / m / "summary.json").exists() for m in names):
+        return {m: json.loads((d / m / "summary.json").read_text()) for m in names}
+    t0 = time.perf_counter()
+    done = run_ensemble_members(scene, settings, float(ref["sampling_interval_s"]), d)
+    members = {}
+    for label, md, result in done:
+        if result.status != "completed":
+            raise SystemExit(f"ensemble member {label}: {result.status} {result.error}")
+        members[md.name] = json.loads((md / "summary.json").read_text())
+    (d / "process.json").write_text(json.dumps({"elapsed_s": time.perf_counter() - t0}))
+    return members
+
+
 def _fmt(value: float, unit: str) -> str:
     if unit == "N":
         return f"{value / 1e3:.4g} kN"
@@ -117,7 +140,6 @@ def _bridge_stress(run: dict[str, Any]) -> None:
 def main() -> None:
     import crane_fem  # noqa: F401  (MPI before the study's modules)
     from crane_fem.bench.common import explicit_settings
-    from crane_fem.study import run_ensemble_members
     from crane_fem.tolerances import judge_runs, with_spread
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -148,26 +170,7 @@ def main() -> None:
     base = {"model.mesh": str(mesh), "model.size": float(args.size), **variant}
     ref_settings = explicit_settings(SOLID, base=base)
     ref = _run(SOLID, out / "mockup", ref_settings, args.reuse)
-    members_dir = out / "ensemble"
-    sampling = float(ref["sampling_interval_s"])
-    if args.reuse and all(
-        (members_dir / m / "summary.json").exists() for m in ("x0.995", "x1.005", "dt0.5")
-    ):
-        members = {
-            m: json.loads((members_dir / m / "summary.json").read_text())
-            for m in ("x0.995", "x1.005", "dt0.5")
-        }
-    else:
-        t0 = time.perf_counter()
-        done = run_ensemble_members(SOLID, ref_settings, sampling, members_dir)
-        members = {}
-        for label, d, result in done:
-            if result.status != "completed":
-                raise SystemExit(f"ensemble member {label}: {result.status} {result.error}")
-            members[d.name] = json.loads((d / "summary.json").read_text())
-        (members_dir / "process.json").write_text(
-            json.dumps({"elapsed_s": time.perf_counter() - t0})
-        )
+    members = _ensemble(SOLID, ref_settings, ref, out / "ensemble", args.reuse)
     mixed = _run(MIXED, out / "mixed", {"output.xdmf": False, **variant}, args.reuse)
     frame = _run(
         FRAME,

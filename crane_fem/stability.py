@@ -38,24 +38,44 @@ def max_frequency(model: StructuralModel, extra: tuple[ContactSet, float] | None
             _add_offdiagonal_penalty(A, contacts, k, model)
     s = model.create_vector(np.sqrt(model.minv))
     A.diagonalScale(s, s)
-    eps = SLEPc.EPS().create(model.comm)
     try:
-        eps.setOptionsPrefix("crane_fem_dtcrit_")
-        eps.setOperators(A)
-        eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
-        eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_REAL)
-        eps.setTolerances(1e-12, 10000)
+        lam = _largest_eigenvalue(model.comm, "crane_fem_dtcrit_", A, None, 1e-12)
+    finally:
+        s.destroy()
+        A.destroy()
+    return math.sqrt(max(lam, 0.0))
+
+
+def _largest_eigenvalue(
+    comm: Any, prefix: str, A: PETSc.Mat, B: PETSc.Mat | None, tol: float
+) -> float:
+    """λ_max of A x = λ x (symmetric) or A x = λ B x (B symmetric positive definite, B⁻¹
+    by conjugate gradients: a mass matrix is well conditioned), by SLEPc's Krylov–Schur
+    under the options ``prefix`` (collective)."""
+    eps = SLEPc.EPS().create(comm)
+    try:
+        eps.setOptionsPrefix(prefix)
+        if B is None:
+            eps.setOperators(A)
+            eps.setProblemType(SLEPc.EPS.ProblemType.HEP)
+            eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_REAL)
+        else:
+            eps.setOperators(A, B)
+            eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
+            eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
+            ksp = eps.getST().getKSP()
+            ksp.setType("cg")
+            ksp.getPC().setType("jacobi")
+            ksp.setTolerances(rtol=1e-14, atol=0.0, max_it=2000)
+        eps.setTolerances(tol, 10000)
         eps.setDimensions(1)
         eps.setFromOptions()
         eps.solve()
         if eps.getConverged() < 1:
-            raise RuntimeError("SLEPc did not converge on λ_max(M⁻¹K)")
-        lam = float(eps.getEigenvalue(0).real)
+            raise RuntimeError(f"SLEPc did not converge on λ_max (options prefix {prefix})")
+        return float(eps.getEigenvalue(0).real)
     finally:
         eps.destroy()
-        s.destroy()
-        A.destroy()
-    return math.sqrt(max(lam, 0.0))
 
 
 def _add_offdiagonal_penalty(
@@ -91,25 +111,7 @@ def max_frequency_consistent(model: StructuralModel) -> float:
     (unit rows in both) give λ = 1, below any structural λ_max."""
     if model.M is None:
         raise ValueError("the model has no consistent mass matrix")
-    eps = SLEPc.EPS().create(model.comm)
-    try:
-        eps.setOptionsPrefix("crane_fem_dtcrit_m_")
-        eps.setOperators(model.K, model.M)
-        eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
-        eps.setWhichEigenpairs(SLEPc.EPS.Which.LARGEST_MAGNITUDE)
-        eps.setTolerances(1e-10, 10000)
-        eps.setDimensions(1)
-        ksp = eps.getST().getKSP()
-        ksp.setType("cg")
-        ksp.getPC().setType("jacobi")
-        ksp.setTolerances(rtol=1e-14, atol=0.0, max_it=2000)
-        eps.setFromOptions()
-        eps.solve()
-        if eps.getConverged() < 1:
-            raise RuntimeError("SLEPc did not converge on λ_max(M⁻¹K), consistent M")
-        lam = float(eps.getEigenvalue(0).real)
-    finally:
-        eps.destroy()
+    lam = _largest_eigenvalue(model.comm, "crane_fem_dtcrit_m_", model.K, model.M, 1e-10)
     return math.sqrt(max(lam, 0.0))
 
 
