@@ -29,6 +29,12 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "demos" / "frame_crane_solid.toml"
 
 
+def _rel(path: Path) -> str:
+    """``path`` as given on the command line from the repository's root."""
+    p = path.resolve()
+    return str(p.relative_to(ROOT)) if p.is_relative_to(ROOT) else str(path)
+
+
 def main() -> None:
     import crane_fem  # noqa: F401  (MPI before the study's modules)
     from crane_fem.bench.common import explicit_settings
@@ -84,13 +90,19 @@ def main() -> None:
     t_ref, t_cpl = ref["_process_s"], coupled["_process_s"]
     loop_ref, loop_cpl = ref["wall_time_integration_s"], coupled["wall_time_integration_s"]
     command = "`.venv/bin/python benchmarks/mixed_coupled_vs_explicit.py`" + "".join(
-        [f" --set {kv}" for kv in args.set] + [f" --coupled {kv}" for kv in args.coupled]
+        ([f" --scene {_rel(args.scene)}"] if scene != SCENE else [])
+        + [f" --set {kv}" for kv in args.set]
+        + [f" --coupled {kv}" for kv in args.coupled]
     )
     lines = [
         f"# {scene.name}: coupled against its own fully explicit run, THEORY.md §8 (b)",
         "",
         f"Command: {command}"
-        + (f" --out {args.out} --report {args.report}" if args.set or args.coupled else ""),
+        + (
+            f" --out {_rel(args.out)} --report {_rel(args.report)}"
+            if args.set or args.coupled
+            else ""
+        ),
         "",
         f"Started {started}"
         + (" (--reuse: the runs of an earlier start)" if args.reuse else "")
