@@ -143,10 +143,12 @@ def write(path: Path, text: str) -> Path:
 
 
 #: The coupled run (the solid explicit, the beams Newmark) and the fully explicit one (the
-#: beams under the central difference at the solid's step, through the joints every step).
+#: beams under the central difference at the solid's step, through the joints every step;
+#: the coupled run's refinement at impacts, ``fine_ratio``, ignored as every monolithic run
+#: ignores the split).
 COUPLINGS = {
     "gc-mean": '[coupling]\nmethod = "gc-mean"\nratio = 4\n',
-    "monolithic": '[coupling]\nmethod = "monolithic"\nratio = 4\n',
+    "monolithic": '[coupling]\nmethod = "monolithic"\nratio = 4\nfine_ratio = 2\n',
 }
 
 

@@ -269,14 +269,17 @@ def build_integrators(
                 assert factory is not None
                 return factory(zone, side, ratio, fixed)
 
-        # The method's own keys: the scenario refuses those of another method.
+        # The method's own keys: the scenario refuses those of another method. (A mixed
+        # model's fully explicit run ignores the coupled run's, as a monolithic run does.)
         keys = (*HYBRID_KEYS, "refine_quiet", "refine_margin", "drift_correction")
+        own = {} if models.beams_explicit else {k: getattr(cpl, k) for k in keys}
         setup = MethodSetup(
             operator if factory is not None else None,
-            {k: getattr(cpl, k) for k in keys if getattr(cpl, k) is not None},
+            {k: v for k, v in own.items() if v is not None},
             _static_forces(models, cons),
         )
-        method = create_method(models.method, system, setup, cpl.fine_ratio)
+        fine = None if models.beams_explicit else cpl.fine_ratio
+        method = create_method(models.method, system, setup, fine)
         report = factory.report if factory is not None else None
     else:
         # The monolithic reference records once per sampling interval.
