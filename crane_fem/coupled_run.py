@@ -155,19 +155,17 @@ def _records(
     force0: FloatArray | None,
     resumed: MacroRecord | None,
     sliding: SlidingContacts | LineContacts | None = None,
-    refresh_every: int = 1,
 ) -> Iterator[MacroRecord]:
     """The macro records of a run: the start's (or the resumed checkpoint's), then one per
-    macro step to the clock's end (collective). Before each macro step that starts on a
-    multiple of ``refresh_every`` micro steps, node-to-surface contacts are paired again
-    where their points have slid (``sliding``: the hook that updates the explicit zone's
-    contact rows)."""
+    macro step to the clock's end (collective). Before each macro step, node-to-surface
+    contacts are paired again where their points have slid (``sliding``: the hook that
+    updates the explicit zone's contact rows)."""
     rec = method.initialize(force0) if resumed is None else resumed
     yield rec
     system = method.system
     grid = system.grid
     while not grid.finished:
-        if sliding is not None and system.E is not None and grid.i % refresh_every == 0:
+        if sliding is not None and system.E is not None:
             sliding.update(system.E, system.t)
         yield method.step()
 
@@ -367,12 +365,7 @@ def run_coupled(
     try:
         with stop, HistoryWriter(out / "history.csv", columns, comm, history) as writer:
             sliding = sim.constraints.sliding
-            # A mixed model's fully explicit run (GC at m = 1) refreshes its contacts at the
-            # coupled run's macro steps, not at each of its own (as a monolithic run does
-            # once a sampling interval).
-            md = sim.models
-            every = sc.coupling.ratio if md.beams_explicit and sc.coupling is not None else 1
-            for rec in _records(method, it.interface_force0, resumed, sliding, every):
+            for rec in _records(method, it.interface_force0, resumed, sliding):
                 bar.update(rec.micro_step - bar.n)
                 sample, at_sample = divmod(rec.micro_step, n_s)
                 at_sample = at_sample == 0
