@@ -19,11 +19,10 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-import tomllib
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from mixed_vs_mockup import _ensemble, _fmt, _run
+from mixed_vs_mockup import _assignments, _ensemble, _fmt, _run
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "demos" / "frame_crane_solid.toml"
@@ -62,8 +61,7 @@ def main() -> None:
     out.mkdir(parents=True, exist_ok=True)
     scene: Path = args.scene.resolve()
     started = time.strftime("%Y-%m-%d %H:%M:%S")
-    variant = {k: tomllib.loads(f"v = {v}")["v"] for k, v in (kv.split("=", 1) for kv in args.set)}
-    own = {k: tomllib.loads(f"v = {v}")["v"] for k, v in (kv.split("=", 1) for kv in args.coupled)}
+    variant, own = _assignments(args.set), _assignments(args.coupled)
     name = "coupled" + "".join(f"_{k.split('.')[-1]}{v}" for k, v in own.items())
 
     ref_settings = explicit_settings(scene, base=variant)

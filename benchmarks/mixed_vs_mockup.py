@@ -71,6 +71,11 @@ def _run(scene: Path, d: Path, settings: dict[str, Any], reuse: bool) -> dict[st
     return s
 
 
+def _assignments(items: list[str]) -> dict[str, Any]:
+    """``KEY=VALUE`` arguments as settings, each value a TOML value."""
+    return {k: tomllib.loads(f"v = {v}")["v"] for k, v in (kv.split("=", 1) for kv in items)}
+
+
 def _ensemble(
     scene: Path, settings: dict[str, Any], ref: dict[str, Any], d: Path, reuse: bool
 ) -> dict[str, dict[str, Any]]:
@@ -166,7 +171,7 @@ def main() -> None:
         sets = [a for kv in args.set for a in ("--set", kv)]
         cmd = [str(EXE), "mesh", str(SOLID), "--set", f"model.size={args.size}", *sets]
         _call([*cmd, "-o", str(mesh)])
-    variant = {k: tomllib.loads(f"v = {v}")["v"] for k, v in (kv.split("=", 1) for kv in args.set)}
+    variant = _assignments(args.set)
     base = {"model.mesh": str(mesh), "model.size": float(args.size), **variant}
     ref_settings = explicit_settings(SOLID, base=base)
     ref = _run(SOLID, out / "mockup", ref_settings, args.reuse)

@@ -24,6 +24,8 @@ over the wheels in a diagonal pattern, and a vertical shake rocked and pitched t
 
 from __future__ import annotations
 
+from typing import Protocol
+
 import gmsh
 import numpy as np
 import numpy.typing as npt
@@ -32,7 +34,7 @@ from crane_fem.geometry.crane_mirror import IDENTITY, mirror_mesh
 from crane_fem.geometry.crane_pairs import CraneMeshInfo, mesh_info
 from crane_fem.geometry.crane_parameters import CraneGeometry
 
-__all__ = ["build_crane_model"]
+__all__ = ["WheelGeometry", "add_flanged_wheel", "build_crane_model", "flange_sides"]
 
 
 def _box(x0: float, y0: float, z0: float, dx: float, dy: float, dz: float) -> int:
@@ -53,14 +55,38 @@ def _rectangle_x(x: float, y0: float, z0: float, dy: float, dz: float) -> int:
     return occ.addPlaneSurface([occ.addCurveLoop(lines)])
 
 
-def _flange_sides(x: float) -> list[tuple[str, float]]:
+def flange_sides(x: float) -> list[tuple[str, float]]:
     """(name, s) of the flanges of the wheel on the rail at x: s = ±1 is the side of the rail
     (the x direction from the rail to the flange); the inner flange faces x = 0."""
     towards_centre = -1.0 if x > 0.0 else 1.0
     return [("in", towards_centre), ("out", -towards_centre)]
 
 
-def _add_flanged_wheel(geo: CraneGeometry, x: float, y: float) -> tuple[int, list[int]]:
+class WheelGeometry(Protocol):
+    """What a flanged wheel is built from: the 3D mock-up's geometry, or the frame crane's
+    model with solid wheel zones (m)."""
+
+    @property
+    def rail_top(self) -> float: ...
+    @property
+    def rail_width(self) -> float: ...
+    @property
+    def wheel_width(self) -> float: ...
+    @property
+    def wheel_length(self) -> float: ...
+    @property
+    def wheel_height(self) -> float: ...
+    @property
+    def flange_clearance(self) -> float: ...
+    @property
+    def flange_depth(self) -> float: ...
+    @property
+    def flange_thickness(self) -> float: ...
+    @property
+    def flange_reach(self) -> float: ...
+
+
+def add_flanged_wheel(geo: WheelGeometry, x: float, y: float) -> tuple[int, list[int]]:
     """The wheel block at (x, y) fused with its two flanges (one OCC volume), and the
     rectangles to imprint on the flanges' inner faces below the rail top (not synchronised).
 
@@ -73,7 +99,7 @@ def _add_flanged_wheel(geo: CraneGeometry, x: float, y: float) -> tuple[int, lis
     y0, wl = y - 0.5 * geo.wheel_length, geo.wheel_length
     wheel = _box(x - 0.5 * geo.wheel_width, y0, zt, geo.wheel_width, wl, hw)
     parts, imprints = [], []
-    for _, s in _flange_sides(x):
+    for _, s in flange_sides(x):
         face = x + s * (0.5 * geo.rail_width + geo.flange_clearance)  # the face at the rail
         outer = x + s * geo.flange_reach
         parts.append(
@@ -142,7 +168,7 @@ def _flange_patches(geo: CraneGeometry, k: int, on_wheels: set[int]) -> dict[str
         box = (xp - eps, y0 - eps, zt - geo.flange_depth - eps, xp + eps, y1 + eps, zt + eps)
         return [t for _, t in gmsh.model.getEntitiesInBoundingBox(*box, 2)]
 
-    for side, s in _flange_sides(x):
+    for side, s in flange_sides(x):
         x_rail = x + s * 0.5 * geo.rail_width
         x_flange = x_rail + s * geo.flange_clearance
         flange_face = [t for t in faces_at(x_flange) if t in on_wheels]
@@ -199,7 +225,7 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
             )
         )
         if geo.flanges:  # the rail sides facing the flanges
-            for _, s in _flange_sides(x):
+            for _, s in flange_sides(x):
                 imprints.append(
                     _rectangle_x(
                         x + s * 0.5 * geo.rail_width,
@@ -227,7 +253,7 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
         geo.frame_thickness,
     )
     if geo.flanges:
-        flanged = [_add_flanged_wheel(geo, x, y) for x, y in geo.wheel_centres()]
+        flanged = [add_flanged_wheel(geo, x, y) for x, y in geo.wheel_centres()]
         wheels = [w for w, _ in flanged]
         flange_imprints = [(2, r) for _, rects in flanged for r in rects]
     else:

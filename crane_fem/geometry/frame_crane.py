@@ -190,67 +190,28 @@ def frame_crane_layout(m: Any) -> FrameCraneLayout:
     return FrameCraneLayout(s, axis, rail_top, level, wheels, girder, plate / grillage, solids)
 
 
-#: The flanges of girder 2's wheels (x > 0), the quarter meshed: (name, side of the rail
-#: along x); the inner one faces x = 0 (its images in x = 0 face it too).
-_FLANGE_SIDES = (("in", -1.0), ("out", 1.0))
-
-
-def _flanged_wheel(
-    m: Any, block: int, x_rail: float, centre: tuple[float, float], rail_top: float
-) -> tuple[int, list[tuple[str, int]]]:
-    """The wheel ``block`` fused with its two flanges (one OCC volume, not synchronised), as
-    the 3D mock-up's (crane_fem.geometry.crane_build): each a plate ``flange_thickness`` thick
-    hanging ``flange_depth`` below the rail top, its inner face ``flange_clearance`` off the
-    rail's side, joined to the wheel by a web over the upper half of its height. Returns the
-    body and, per side, the flange face's patch below the rail top (the contact points)."""
+def _flanged_wheel(m: Any, centre: tuple[float, float]) -> tuple[int, list[tuple[str, int]]]:
+    """The wheel at ``centre`` on its rail's axis with its two flanges, as the 3D mock-up's
+    (crane_fem.geometry.crane_build.add_flanged_wheel), the flanges' faces below the rail top
+    imprinted (synchronised). Returns the body and, per side (``in``: facing x = 0), that
+    patch: the flange's contact points."""
     import gmsh
 
+    from crane_fem.geometry.crane_build import add_flanged_wheel, flange_sides
+
     occ = gmsh.model.occ
-    xw, yw = centre
-    y0, hw = yw - 0.5 * m.wheel_length, m.wheel_height
-    reach = 0.5 * m.rail_width + m.flange_clearance + m.flange_thickness
-    parts, rects = [], []
-    for side, s in _FLANGE_SIDES:
-        face = x_rail + s * (0.5 * m.rail_width + m.flange_clearance)
-        outer = x_rail + s * reach
-        low = rail_top - m.flange_depth
-        parts.append(
-            occ.addBox(
-                min(face, outer), y0, low, m.flange_thickness, m.wheel_length, m.flange_depth + hw
-            )
-        )
-        parts.append(
-            occ.addBox(
-                min(xw, outer), y0, rail_top + 0.5 * hw, abs(outer - xw), m.wheel_length, 0.5 * hw
-            )
-        )
-        corners = [
-            (y0, low),
-            (y0 + m.wheel_length, low),
-            (y0 + m.wheel_length, rail_top),
-            (y0, rail_top),
-        ]
-        points = [occ.addPoint(face, y, z) for y, z in corners]
-        lines = [occ.addLine(points[i], points[(i + 1) % 4]) for i in range(4)]
-        rects.append((side, face, occ.addPlaneSurface([occ.addCurveLoop(lines)])))
-    body, _ = occ.fuse([(3, block)], [(3, t) for t in parts])
-    if len(body) != 1:
-        raise RuntimeError("frame crane: a wheel and its flanges do not fuse into one body")
-    out, _ = occ.fragment(body, [(2, r) for _, _, r in rects])  # (imprinted on its faces)
+    x, y = centre
+    body, rects = add_flanged_wheel(m, x, y)
+    out, _ = occ.fragment([(3, body)], [(2, r) for r in rects])
     vols = [t for d, t in out if d == 3]
     occ.synchronize()
     patches = []
-    eps = 1e-6
-    for side, face, _ in rects:
-        box = (
-            face - eps,
-            y0 - eps,
-            rail_top - m.flange_depth - eps,
-            face + eps,
-            y0 + m.wheel_length + eps,
-            rail_top + eps,
-        )
-        found = [t for _, t in gmsh.model.getEntitiesInBoundingBox(*box, 2)]
+    eps, y0, zt = 1e-6, y - 0.5 * m.wheel_length, m.rail_top
+    for side, s in flange_sides(x):
+        face = x + s * (0.5 * m.rail_width + m.flange_clearance)
+        lo = (face - eps, y0 - eps, zt - m.flange_depth - eps)
+        hi = (face + eps, y0 + m.wheel_length + eps, zt + eps)
+        found = [t for _, t in gmsh.model.getEntitiesInBoundingBox(*lo, *hi, 2)]
         if len(found) != 1:
             raise RuntimeError(f"frame crane: the {side} flange's face of a wheel not found")
         patches.append((side, found[0]))
@@ -272,6 +233,7 @@ def _solid_zones(
     symmetric in both whatever the trolley's position): the zones' meshes are mirror images,
     so a symmetric load loads the four wheels alike (an unstructured mesh of each would rock
     the trolley on its own, as the mock-up's would: crane_fem.geometry.crane_mirror)."""
+    from crane_fem.geometry.crane_build import flange_sides
     from crane_fem.geometry.crane_mirror import meshed_region, reflect_region, snap_to_planes
 
     hc, hg, hr = m.end_carriage_height, m.girder_height, m.rail_height
@@ -293,17 +255,18 @@ def _solid_zones(
         ]
         pieces, _ = occ.fragment([(3, girder)], [(3, r) for r in rails])
         zone = [t for _, t in pieces]
-        block = occ.addBox(
-            xw - 0.5 * m.wheel_width,
-            yw - 0.5 * m.wheel_length,
-            rail_top,
-            m.wheel_width,
-            m.wheel_length,
-            m.wheel_height,
-        )
         patches: list[tuple[str, int]] = []
         if m.flanges:
-            block, patches = _flanged_wheel(m, block, x, (xw, yw), rail_top)
+            block, patches = _flanged_wheel(m, (xw, yw))
+        else:
+            block = occ.addBox(
+                xw - 0.5 * m.wheel_width,
+                yw - 0.5 * m.wheel_length,
+                rail_top,
+                m.wheel_width,
+                m.wheel_length,
+                m.wheel_height,
+            )
         occ.synchronize()
 
         def faces(vols: list[int], axis: int, value: float, lo: float | None = None) -> list[int]:
@@ -333,7 +296,7 @@ def _solid_zones(
             (2, "wheel_bottom_3"): faces([block], 2, rail_top),
             (2, "wheel_top_3"): faces([block], 2, rail_top + m.wheel_height),
         }
-        for side, s in _FLANGE_SIDES if m.flanges else ():
+        for side, s in flange_sides(xw) if m.flanges else ():
             # The rail's side under the wheels (its middle part: the contact surface) and
             # the flange's face below the rail top (the contact points), ``clearance`` off.
             groups[2, f"rail_{side}_2"] = faces(zone, 0, x + s * 0.5 * m.rail_width, y_lo)

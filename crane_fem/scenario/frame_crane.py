@@ -160,11 +160,11 @@ class FrameCraneModel(Section):
                     f"flange_depth = {self.flange_depth} must be < rail_height = "
                     f"{self.rail_height} (the flanges would reach the girder's top)"
                 )
-            reach = 0.5 * self.rail_width + self.flange_clearance + self.flange_thickness
-            if self.flanges and not reach < 0.5 * self.girder_spacing:
+            if self.flanges and not self.flange_reach < 0.5 * self.girder_spacing:
                 raise ValueError(
                     f"flange_thickness = {self.flange_thickness}: the inner flanges reach "
-                    f"{reach:g} from their rail's axis, past the crane's centre plane x = 0"
+                    f"{self.flange_reach:g} from their rail's axis, past the crane's centre "
+                    "plane x = 0"
                 )
             for key, bad in (
                 ("hoist", self.hoist == "rope"),
@@ -177,6 +177,16 @@ class FrameCraneModel(Section):
                         "the joints sit on the girder-and-rail section's centroid)"
                     )
         return self
+
+    @property
+    def rail_top(self) -> float:
+        """The rails' top above the end carriages' base (m)."""
+        return self.end_carriage_height + self.girder_height + self.rail_height
+
+    @property
+    def flange_reach(self) -> float:
+        """Distance from a rail's axis to the outer face of its wheel's flanges (m)."""
+        return 0.5 * self.rail_width + self.flange_clearance + self.flange_thickness
 
     @property
     def groups(self) -> list[str]:
