@@ -423,6 +423,51 @@ def test_flanges_of_the_solid_wheel_zones(shared_tmp: Path) -> None:
     assert s["energy_balance_error"] <= 1e-8
 
 
+@pytest.mark.serial  # the rolling rows' two-rank path is the braked rows' (one tangent fewer)
+def test_unbraked_wheels_of_the_solid_zones_roll(shared_tmp: Path) -> None:
+    """``wheel.braked = false`` with solid wheel zones: the wheels' node-to-surface contacts
+    roll along the rails (``[[contact]] rolling = [0, 1, 0]``: friction μ = 0.3 across them
+    only) and the static preload holds no force along them (the wheels' loads as braked).
+    A steady ground acceleration a = 2 m/s² along the rails (below μg, half-cosine ramp
+    τ = 2 ms) leaves the trolley behind: no force acts on it along y, so its wheels run back
+    along their rails by the rigid body's a(t)'s double integral. The four wheels' mean slip
+    follows it within 1 % (measured −0.6 %: the pairs +2.1 and −3.2 %, the trolley's own
+    along-rail vibration, set off by the ramp, in phase opposition at its two ends); across
+    the rails they stay put (below 1 % of it, measured 0.3 %); the mirror images (1 ↔ 3,
+    2 ↔ 4) alike."""
+    (shared_tmp / "along.csv").write_text("0.0,2.0\n1.0,2.0\n")
+    toml = (
+        'name = "frame_crane_rolling"\n[model]\nkind = "frame_crane"\nhoisted_mass = 200.0\n'
+        'wheel_zones = "solid"\nsolid_size = 0.04\nfine = 0.05\n'
+        "[wheel]\nfriction = 0.3\nbraked = false\n"
+        "[material]\nE = 2.1e11\nrho = 7800.0\nnu = 0.3\n"
+        "[loading]\ngravity = [0.0, 0.0, -9.81]\n"
+        '[[loading.ground_motion]]\nrecord = "along.csv"\ndirection = [0.0, 1.0, 0.0]\n'
+        "taper = 0.002\n"
+        '[coupling]\nmethod = "gc-mean"\nratio = 20\n[newmark]\nmass = "lumped"\n'
+        "[time]\nend = 0.02\ndt_factor = 0.9\n[output]\nxdmf = false\n"
+    )
+    path = write(shared_tmp / "frame_crane_rolling.toml", toml)
+    out = shared_tmp / "frame_crane_rolling"
+    assert main(["run", str(path), "-o", str(out), "--no-progress"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    braked = 1434.7321  # the wheels' preload braked (as the frame's 1 434.7 N)
+    for k in range(1, 5):
+        assert s["preload"]["contact_forces_N"][f"wheel_{k}"] == pytest.approx(braked, rel=1e-7)
+    h = read_history(out / "history.csv")
+    a, tau, T = 2.0, 0.002, float(h["t"][-1])
+    # The rigid body's run back: x(τ) = aτ²(1/4 − 1/π²), v(τ) = aτ/2, then a.
+    rigid = a * tau**2 * (0.25 - 1.0 / np.pi**2) + 0.5 * a * tau * (T - tau)
+    rigid += 0.5 * a * (T - tau) ** 2
+    along = [-float(h[f"wheel_{k}_slip_y"][-1]) for k in range(1, 5)]
+    across = [float(h[f"wheel_{k}_slip_x"][-1]) for k in range(1, 5)]
+    print(f"slips along {along} m, across {across} m; rigid body {rigid:.6e} m")
+    assert np.mean(along) == pytest.approx(rigid, rel=0.01)
+    assert max(abs(x) for x in across) < 0.01 * rigid
+    assert abs(along[0] - along[2]) <= 1e-9 * rigid and abs(along[1] - along[3]) <= 1e-9 * rigid
+    assert s["energy_balance_error"] <= 1e-8
+
+
 @pytest.mark.mpi
 def test_mixed_crane_with_flanges_two_ranks_equal_serial(shared_tmp: Path, tmp_path: Path) -> None:
     """The mixed crane of demos/frame_crane_solid_3c.toml (three components, braked wheels

@@ -190,6 +190,14 @@ def _cases(tmp: Path) -> dict[str, tuple[list[str], list[str]]]:
             own_text.replace('points = "cabinet_feet"', 'points = "slab_underside"'),
             ["contact[0].points", "'slab_underside'", "inside", "'floor'"],
         ),
+        "gmsh_rolling_frictionless": (
+            own_text.replace("friction = 0.3", "friction = 0.0\nrolling = [1.0, 0.0, 0.0]"),
+            ["contact[0].rolling", "applies to a contact with friction"],
+        ),
+        "gmsh_rolling_along_the_normal": (
+            own_text.replace("friction = 0.3", "friction = 0.3\nrolling = [0.0, 0.2, 1.0]"),
+            ["contact[0].rolling = [0.0, 0.2, 1.0]", "nearer the normal", "'floor'"],
+        ),
         "gmsh_material_group": (
             own_text.replace('groups = ["cabinet"]', 'groups = ["cabinet", "roof"]'),
             ["material[1].groups", "'roof'"],

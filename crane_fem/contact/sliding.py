@@ -7,7 +7,8 @@ Surface` (a crane's wheel vertices on its rail tops, its flanges on the rail sid
 point's row is g = g0 + n·(u_p − Σ ξ_i u_i) with its triangle's normal n and barycentric
 coordinates ξ (crane_fem.contact.surface); with friction, its tangential rows are
 t·(v_p − Σ ξ_i v_i) for two tangents orthonormal to n (the first along x projected, the second
-n × t₁), the first only for a point that slides freely along the second.
+n × t₁), the first only for a point that slides freely along the second; a family that rolls
+along a given direction d (free-rolling wheels) has t₁ = d × n (across it) only.
 
 g0 keeps the gap of the reference configuration X continuous across re-pairings:
 g0 = n·(X_p − Σ ξ_i X_i) + c_p, with c_p fixed per point at t = 0 (the preload's closing of a
@@ -185,6 +186,8 @@ class Family:
             into its arrays) the points act on one each, the nearest, re-paired as they move
             (node to nearest node: the crane's frictionless flanges on the rail sides, whose
             triangles all touch the interface at the rail's foot).
+        free: None, or the unit direction (3,) the points roll along freely: their one
+            tangential row (``n_tangents`` 1) is across it, t₁ = d × n normalised.
     """
 
     points: IntArray
@@ -196,6 +199,7 @@ class Family:
     along: int = -1
     label: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     vertices: IntArray | None = None
+    free: FloatArray | None = None
 
     @property
     def p(self) -> int:
@@ -216,10 +220,18 @@ class _Flat:
     on_triangle: npt.NDArray[np.bool_]
 
 
-def tangents_of(normal: FloatArray) -> tuple[FloatArray, FloatArray]:
+def tangents_of(
+    normal: FloatArray, free: FloatArray | None = None
+) -> tuple[FloatArray, FloatArray]:
     """Two unit tangents (k, 3) per unit normal (k, 3): t₁ = e_x projected off n (e_y where n
-    is along x), t₂ = n × t₁; for n = e_z: e_x and e_y."""
+    is along x), t₂ = n × t₁; for n = e_z: e_x and e_y. With a rolling direction ``free``
+    (3,): t₁ = free × n normalised (across it), t₂ = n × t₁ (along it, in the plane); for
+    free = e_y and n = e_z, e_x and e_y as above."""
     n = np.asarray(normal, dtype=np.float64).reshape(-1, 3)
+    if free is not None:
+        t1 = np.cross(np.asarray(free, dtype=np.float64), n)
+        t1 /= np.linalg.norm(t1, axis=1)[:, None]
+        return t1, np.cross(n, t1)
     ref = np.zeros_like(n)
     along_x = np.abs(n[:, 0]) > 0.9
     ref[~along_x, 0] = 1.0
@@ -227,6 +239,11 @@ def tangents_of(normal: FloatArray) -> tuple[FloatArray, FloatArray]:
     t1 = ref - np.einsum("ij,ij->i", ref, n)[:, None] * n
     t1 /= np.linalg.norm(t1, axis=1)[:, None]
     return t1, np.cross(n, t1)
+
+
+def _off(d: FloatArray) -> FloatArray:
+    """A unit vector not along ``d`` (3,): e_z, or e_x where d is along z."""
+    return np.array([1.0, 0.0, 0.0]) if abs(d[2]) > 0.9 else np.array([0.0, 0.0, 1.0])
 
 
 def vertex_coordinates(sub: Any, ids: IntArray) -> FloatArray:
@@ -455,7 +472,10 @@ class SlidingContacts:
         """The tangential rows of a family's points: t·(v_p − Σ ξ_i v_i), terms on the ranks
         owning their DOFs (not collective)."""
         n_t = f.n_tangents
-        t1, t2 = tangents_of(np.where(pairing.paired[:, None], pairing.normal, [0.0, 0.0, 1.0]))
+        normal = np.where(pairing.paired[:, None], pairing.normal, [0.0, 0.0, 1.0])
+        if f.free is not None:  # an unpaired point's row is empty: any normal off free
+            normal = np.where(pairing.paired[:, None], normal, _off(f.free))
+        t1, t2 = tangents_of(normal, f.free)
         tans = np.stack([t1, t2], axis=1)[:, :n_t]  # (p, n_t, 3)
         verts = f.surface.vertex_ids[f.surface.triangles[np.maximum(pairing.triangle, 0)]]
         p = f.p

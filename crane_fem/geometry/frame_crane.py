@@ -488,19 +488,14 @@ def _expand_solid_zones(
     """The frame crane with solid wheel zones as a mixed gmsh model's scene: the beams'
     sections and materials, the supports, the hoisted mass, the joints (each girder's
     segment at both ends, each wheel block at its stub's foot), the wheels' node-to-surface
-    contacts on their rails' tops (its ``[wheel]`` friction, braked), and, unless given, the
-    solids explicit and the beams implicit."""
-    from crane_fem.errors import ScenarioError
-
+    contacts on their rails' tops (its ``[wheel]`` friction; unbraked wheels roll along the
+    rails, y: their friction across them only), and, unless given, the solids explicit and
+    the beams implicit."""
     out = copy.deepcopy(data)
     out["model"] = {"kind": "gmsh", "mesh": str(mesh_path)}
     wheel = out.pop("wheel", {}) or {}
     friction = float(wheel.get("friction", 0.0))
-    if friction > 0.0 and not bool(wheel.get("braked", True)):
-        raise ScenarioError(
-            "wheel.braked = false: rolling wheels are not built with wheel_zones = 'solid' "
-            "yet (their contacts are node-to-surface, sticking by friction both ways)"
-        )
+    rolling = friction > 0.0 and not bool(wheel.get("braked", True))
     girders = ["girder_1", "girder_2"]
     stubs = [f"stub_{k}" for k in range(1, 5)]
     lines = ["end_carriage_1", "end_carriage_2", "links", *girders, "trolley", "hook", *stubs]
@@ -525,6 +520,7 @@ def _expand_solid_zones(
             "surface": f"rail_top_{1 if k <= 2 else 2}",
             "friction": friction,
             "name": f"wheel_{k}",
+            **({"rolling": [0.0, 1.0, 0.0]} if rolling else {}),
         }
         for k in range(1, 5)
     ]

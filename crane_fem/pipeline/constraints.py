@@ -360,8 +360,9 @@ def _gmsh_contacts(
                 c.surface,
                 np.full(c.points.size, k, dtype=np.int64),
                 offset,
-                n_tangents=2 if c.friction > 0.0 else 0,
+                n_tangents=(1 if c.rolling is not None else 2) if c.friction > 0.0 else 0,
                 mu=c.friction,
+                free=c.rolling,
             )
         )
     # A point held closed drifts by round-off (ε |u|): 1e-12 of the model absorbs it.

@@ -67,6 +67,8 @@ class PointsOnSurface:
         surface: the surface group's triangles, oriented out of their body.
         pairing: each point on its triangle at X.
         friction: Coulomb's μ.
+        rolling: the unit direction the points roll along freely (friction across it only),
+            or None.
     """
 
     name: str
@@ -75,6 +77,7 @@ class PointsOnSurface:
     surface: Surface
     pairing: Pairing
     friction: float
+    rolling: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -268,7 +271,22 @@ def _surface_contacts(sc: Scenario, tagged: TaggedMesh) -> tuple[PointsOnSurface
                 "of its element size): the points must touch the surface or face it across a "
                 "gap"
             )
-        out.append(PointsOnSurface(c.label, points, X, surface, pairing, c.friction))
+        rolling = None
+        if c.rolling is not None:
+            rolling = np.asarray(c.rolling, dtype=np.float64)
+            rolling /= np.linalg.norm(rolling)
+            # A wheel rolls in its surface's plane: a direction nearer the normal than the
+            # plane is a wrong vector, not a rolling direction.
+            steep = np.abs(pairing.normal @ rolling) > np.sqrt(0.5)
+            if np.any(steep):
+                k = int(np.flatnonzero(steep)[0])
+                raise ScenarioError(
+                    f"contact[{i}].rolling = {list(c.rolling)} is nearer the normal "
+                    f"{(pairing.normal[k].round(6) + 0.0).tolist()} of surface group {c.surface!r} "
+                    f"(at vertex {int(points[k])}) than its plane: give the direction the "
+                    "points roll along, in the surface's plane"
+                )
+        out.append(PointsOnSurface(c.label, points, X, surface, pairing, c.friction, rolling))
     return tuple(out)
 
 

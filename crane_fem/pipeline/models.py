@@ -151,9 +151,10 @@ TOUCHING = 1e-9
 def bonded_points(mesh: MeshStage) -> BondedPoints:
     """The t = 0 pairing of a gmsh model's node-to-surface contacts, every contact's points
     stacked in order (group: the contact's index)."""
-    ids, weights, normal, gap, group = [], [], [], [], []
+    ids, weights, normal, gap, group, free = [], [], [], [], [], []
     for k, c in enumerate(mesh.surface_contacts):
         pr = c.pairing
+        free.append(np.tile(c.rolling if c.rolling is not None else np.zeros(3), (pr.gap.size, 1)))
         tri = c.surface.vertex_ids[c.surface.triangles[pr.triangle]]
         ids.append(np.column_stack([c.points, tri]))
         weights.append(np.column_stack([np.ones(c.points.size), -pr.xi]))
@@ -165,12 +166,14 @@ def bonded_points(mesh: MeshStage) -> BondedPoints:
         return BondedPoints(
             z.astype(np.int64), z, np.zeros((0, 3)), np.zeros(0), np.zeros(0, dtype=np.int64)
         )
+    rolls = any(c.rolling is not None for c in mesh.surface_contacts)
     return BondedPoints(
         np.concatenate(ids).astype(np.int64),
         np.concatenate(weights),
         np.concatenate(normal),
         np.concatenate(gap),
         np.concatenate(group),
+        free=np.concatenate(free) if rolls else None,
     )
 
 

@@ -17,7 +17,9 @@ the element's ends (the rail top's offset makes the tangential rows turn with th
 ``BondedPoints.rows``; the spring is then k_p Σ_d r_d r_dᵀ. A point on a line (a wheel set
 down on its rail) carries no tangential force at rest: its tangential rows are tied at
 :data:`LOOSE_TIE` k_p only, enough to hold the trolley's rigid sliding (``BondedPoints.loose``;
-``crane-fem modes`` keeps them tied as firmly as the normal).
+``crane-fem modes`` keeps them tied as firmly as the normal). A gmsh model's rolling points
+(``[[contact]] rolling``: free-rolling wheels) are likewise tied at :data:`LOOSE_TIE` k_p along
+their rolling direction only (``BondedPoints.free``).
 """
 
 from __future__ import annotations
@@ -69,6 +71,9 @@ class BondedPoints:
         loose: per point, whether it carries no tangential force at rest (a frame's point on
             a line: a wheel set down on its rail), so that the static preload ties its
             tangential rows only weakly (:data:`LOOSE_TIE`); None: none.
+        free: (p, 3) per point (``rows`` None), the unit direction it rolls along freely (a
+            zero row: none), along which the static preload ties it only weakly
+            (:data:`LOOSE_TIE`: no force at rest along it); None: none.
     """
 
     ids: IntArray
@@ -78,13 +83,21 @@ class BondedPoints:
     group: IntArray
     rows: FloatArray | None = None
     loose: npt.NDArray[np.bool_] | None = None
+    free: FloatArray | None = None
 
     def spring(self, i: int, k_p: float, bs: int, static: bool = False) -> FloatArray:
         """k_p times the sum of point ``i``'s rows' outer products (k bs × k bs); in the
-        static preload (``static``), a loose point's tangential rows at :data:`LOOSE_TIE` k_p."""
+        static preload (``static``), a loose point's tangential rows, or a rolling point's
+        direction, at :data:`LOOSE_TIE` k_p."""
         if self.rows is None:
             w = self.weights[i]
-            ke = np.asarray(k_p * np.kron(np.outer(w, w), np.eye(bs)), dtype=np.float64)
+            tie = np.eye(bs)
+            if static and self.free is not None and np.any(self.free[i]):
+                n = self.normal[i]
+                d = self.free[i] - (self.free[i] @ n) * n  # in the triangle's plane
+                d /= np.linalg.norm(d)
+                tie = tie - (1.0 - LOOSE_TIE) * np.outer(d, d)
+            ke = np.asarray(k_p * np.kron(np.outer(w, w), tie), dtype=np.float64)
             return ke
         r = self.rows[i].reshape(3, -1)
         if static and self.loose is not None and self.loose[i]:

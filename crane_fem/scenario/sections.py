@@ -146,13 +146,26 @@ class SurfaceContact(Section):
     """Node-to-surface contact of a gmsh model (``model.kind = "gmsh"``), large sliding: the
     vertices of the surface group ``points`` against the triangles of the surface group
     ``surface`` of another body, re-paired as they slide (crane_fem.contact.sliding);
-    Coulomb ``friction`` μ ≥ 0; ``name`` (default the points group) names its outputs."""
+    Coulomb ``friction`` μ ≥ 0; ``name`` (default the points group) names its outputs.
+    ``rolling = [x, y, z]``: free-rolling wheels, rolling along that direction: their
+    friction acts across it only (none along it), and the static preload holds no force
+    along it."""
 
     type: Literal["surface"]
     points: str
     surface: str
     friction: NonNegativeFloat = 0.0
     name: str | None = None
+    rolling: Vector3 | None = None
+
+    @model_validator(mode="after")
+    def _rolling(self) -> SurfaceContact:
+        if self.rolling is not None:
+            if not any(self.rolling):
+                raise ValueError("rolling: must not be the zero vector")
+            if self.friction <= 0.0:
+                raise ValueError("rolling: applies to a contact with friction")
+        return self
 
     @property
     def label(self) -> str:
