@@ -352,6 +352,10 @@ def assert_same_histories(h1: dict, h2: dict, rtol: float) -> None:
             scale = _scale(h1, ["interface_impulse"]) or own
         elif col.startswith("probe_"):
             scale = probe[col[6]]
+        elif col.endswith(("_slip_x", "_slip_y", "_slip_z")):
+            # A contact's slip vector, each component against its largest (a wheel rolling
+            # along y slips across and normal to its rail by round-off of that).
+            scale = _scale(h1, [col[:-1] + c for c in "xyz"]) or own
         elif col.startswith("force_") and force_scale:
             # A contact's force against the largest contact force: the multipliers are
             # solved together, so a flange's few newtons carry the round-off of the wheels'
