@@ -393,6 +393,10 @@ class ExplicitZone:
     owns a duplicate of the communicator: :meth:`destroy` frees it (collective).
     """
 
+    #: Whether construction compiles (or loads) the kernel with a call of no step; False
+    #: only for crane_fem.warm, which compiles its callees itself.
+    compile_on_setup = True
+
     def __init__(
         self,
         model: StructuralModel,
@@ -480,7 +484,8 @@ class ExplicitZone:
         )
         self._no_op = empty_operator(n_g)
         # Compile (or load from the cache) the kernel now, in the set-up: a call of no step.
-        self.advance(self.steps(0.0, 0))
+        if self.compile_on_setup:
+            self.advance(self.steps(0.0, 0))
 
     # ---------------------------------------------------------------------------------
     @property
