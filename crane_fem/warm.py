@@ -5,7 +5,7 @@ install, one core: ``crane_fem.kernels.explicit.run_steps`` and the ~40 function
 each cached on disk as it is compiled). Two runs started side by side (``make demo``) each
 compile all of it. Here the leaves of that graph are shared out instead: each of two
 processes sets the scene up (the kernels' argument types are its zone's), then compiles one
-:data:`HALF` of the callees; the runs that follow load them from the cache and compile only
+:data:`HALVES` of the callees; the runs that follow load them from the cache and compile only
 the step itself (``_micro``, ``run_steps``). A callee compiled here with other argument types
 than the step passes it is only time lost: the step compiles its own.
 
@@ -28,8 +28,6 @@ __all__ = ["HALVES", "compile_half"]
 _B = types.Array(types.boolean, 1, "C")
 _F = types.Array(types.float64, 1, "C")
 _I = types.Array(types.int64, 1, "C")
-
-
 _F2 = types.Array(types.float64, 2, "C")
 
 
