@@ -161,6 +161,14 @@ def main() -> None:
         metavar="KEY=VALUE",
         help="a variant: a key of both scenes (e.g. model.trolley_position=1.5), repeatable",
     )
+    ap.add_argument(
+        "--mixed-set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a key of the mixed crane's only (e.g. model.trolley_body='\"solid\"'): its run "
+        "in DIR/mixed_<keys>, the mock-up's reused with --reuse, repeatable",
+    )
     args = ap.parse_args()
     out: Path = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -176,7 +184,9 @@ def main() -> None:
     ref_settings = explicit_settings(SOLID, base=base)
     ref = _run(SOLID, out / "mockup", ref_settings, args.reuse)
     members = _ensemble(SOLID, ref_settings, ref, out / "ensemble", args.reuse)
-    mixed = _run(MIXED, out / "mixed", {"output.xdmf": False, **variant}, args.reuse)
+    own = _assignments(args.mixed_set)
+    mixed_dir = out / "_".join(["mixed", *(f"{k}={v}" for k, v in own.items())])
+    mixed = _run(MIXED, mixed_dir, {"output.xdmf": False, **variant, **own}, args.reuse)
     frame = _run(
         FRAME,
         out / "frame",
@@ -199,15 +209,17 @@ def main() -> None:
         "Command: `.venv/bin/python benchmarks/mixed_vs_mockup.py`"
         + (f" --size {args.size}" if args.size != "0.04" else "")
         + "".join(f" --set {kv}" for kv in args.set)
-        + (f" --out {args.out} --report {args.report}" if args.set else ""),
+        + "".join(f" --mixed-set {kv}" for kv in args.mixed_set)
+        + (f" --out {args.out} --report {args.report}" if args.set or args.mixed_set else ""),
         "",
         f"Started {started}"
         + (" (--reuse: the runs of an earlier start)" if args.reuse else "")
         + "; serial processes, OMP_NUM_THREADS=1 (the ensemble two at a time). Reference: "
         f"`demos/crane.toml` fully explicit on a uniform {args.size} m P1 mesh "
         f"({ref['dofs_explicit'] + ref['dofs_implicit']} DOFs, {ref['_process_s']:.0f} s), its "
-        "ensemble record × 0.995, × 1.005 and Δt × ½. Runs: `demos/frame_crane_solid.toml` as "
-        f"committed (gc-mean m = 20, {mixed['_process_s']:.0f} s) and `demos/frame_crane.toml` "
+        "ensemble record × 0.995, × 1.005 and Δt × ½. Runs: `demos/frame_crane_solid.toml` "
+        + ("as committed" if not own else "with " + ", ".join(args.mixed_set))
+        + f" (gc-mean m = 20, {mixed['_process_s']:.0f} s) and `demos/frame_crane.toml` "
         f"fully explicit ({frame['_process_s']:.0f} s). The vertical record, 0.2 s.",
         "",
         "A quantity passes when |run − mock-up| ≤ max(tolerance, spread); ratio = |run − "

@@ -272,6 +272,17 @@ BAD: dict[str, tuple[list[str], list[str]]] = {
         ],
         ["model", "flange_depth = 0.05", "rail_height = 0.04"],
     ),
+    "solid_trolley_on_line_zones": (
+        ["--set", "model.trolley_body='solid'"],
+        ["model", "trolley_body = 'solid' needs wheel_zones = 'solid'"],
+    ),
+    "solid_trolley_with_a_grillage_section": (
+        [
+            *("--set", "model.wheel_zones='solid'", "--set", "model.trolley_body='solid'"),
+            *("--set", "model.trolley={shape='rectangle', b=0.2, h=0.05}"),
+        ],
+        ["model", "trolley: a grillage's section, not with trolley_body = 'solid'"],
+    ),
     "girder_box_incomplete": (
         ["--set", "model.girder={shape='box', b=0.1}"],
         ["model.girder.h", "missing"],

@@ -53,7 +53,7 @@ __all__ = [
 
 
 #: Changes with the drawing below, so that a mesh cached by an older one is not reused.
-LAYOUT_VERSION = 5
+LAYOUT_VERSION = 6
 
 
 @dataclass(frozen=True)
@@ -143,6 +143,9 @@ def frame_crane_layout(m: Any) -> FrameCraneLayout:
     y0, y1 = m.trolley_position - 0.5 * m.frame_length, m.trolley_position + 0.5 * m.frame_length
     xw = 0.5 * m.girder_spacing + m.frame_overhang
     centre = (0.0, m.trolley_position, level)
+    if m.trolley_body == "solid":  # the plate and the wheels: one solid body (_solid_zones)
+        solids = _solid_zones(m, xs, wheels, seg)
+        return FrameCraneLayout(s, axis, rail_top, level, wheels, girder, 1.0, solids)
     for x in xs:
         s.member("trolley", (x, y0, level), (x, y1, level), size=m.size)
     for y in wheel_ys:
@@ -190,21 +193,39 @@ def frame_crane_layout(m: Any) -> FrameCraneLayout:
     return FrameCraneLayout(s, axis, rail_top, level, wheels, girder, plate / grillage, solids)
 
 
-def _flanged_wheel(m: Any, centre: tuple[float, float]) -> tuple[int, list[tuple[str, int]]]:
-    """The wheel at ``centre`` on its rail's axis with its two flanges, as the 3D mock-up's
-    (crane_fem.geometry.crane_build.add_flanged_wheel), the flanges' faces below the rail top
-    imprinted (synchronised). Returns the body and, per side (``in``: facing x = 0), that
-    patch: the flange's contact points."""
+def _wheel_and_plate(
+    m: Any, centre: tuple[float, float], plate: int | None
+) -> tuple[int, int | None, list[tuple[str, int]]]:
+    """The wheel at ``centre`` on its rail's axis (with its two flanges when ``m.flanges``,
+    as the 3D mock-up's, crane_fem.geometry.crane_build.add_flanged_wheel, the flanges' faces
+    below the rail top imprinted), glued to the trolley ``plate`` on its top when given
+    (synchronised). Returns the wheel's volume, the plate's and, per side (``in``: facing
+    x = 0), the flange's patch: its contact points."""
     import gmsh
 
     from crane_fem.geometry.crane_build import add_flanged_wheel, flange_sides
 
     occ = gmsh.model.occ
     x, y = centre
-    body, rects = add_flanged_wheel(m, x, y)
-    out, _ = occ.fragment([(3, body)], [(2, r) for r in rects])
-    vols = [t for d, t in out if d == 3]
+    top = m.rail_top + m.wheel_height
+    if m.flanges:
+        body, rects = add_flanged_wheel(m, x, y)
+    else:
+        wl, ww = m.wheel_length, m.wheel_width
+        body = occ.addBox(x - 0.5 * ww, y - 0.5 * wl, m.rail_top, ww, wl, m.wheel_height)
+        rects = []
+    tools = [(2, r) for r in rects] + ([(3, plate)] if plate is not None else [])
+    vols = [body]
+    if tools:
+        _, children = occ.fragment([(3, body)], tools)
+        vols = [t for kids in (children[0], children[-1]) for d, t in kids if d == 3]
     occ.synchronize()
+    above = sorted({t for t in vols if gmsh.model.getBoundingBox(3, t)[2] > top - 1e-6})
+    below = sorted({t for t in vols if t not in above})
+    if len(below) != 1 or len(above) != (plate is not None):
+        raise RuntimeError("frame crane: a wheel and the trolley's plate not found")
+    if not m.flanges:
+        return below[0], (above[0] if above else None), []
     patches = []
     eps, y0, zt = 1e-6, y - 0.5 * m.wheel_length, m.rail_top
     for side, s in flange_sides(x):
@@ -215,7 +236,7 @@ def _flanged_wheel(m: Any, centre: tuple[float, float]) -> tuple[int, list[tuple
         if len(found) != 1:
             raise RuntimeError(f"frame crane: the {side} flange's face of a wheel not found")
         patches.append((side, found[0]))
-    return vols[0], patches
+    return below[0], (above[0] if above else None), patches
 
 
 def _solid_zones(
@@ -225,8 +246,9 @@ def _solid_zones(
     (volume ``zone_k``; the rail in parts along y, the middle ones' top, ``rail_top_k``, the
     wheels' contact surface, off the end faces), its end faces ``zone_k_a``/``_b`` (girder
     and rail: the joints' faces); each wheel a block on the rail (``wheel_k``; faces
-    ``wheel_bottom_k``, ``wheel_top_k``). Elements of ``solid_size`` in the rails and the
-    wheels, ``fine`` in the girders' webs.
+    ``wheel_bottom_k``, ``wheel_top_k``) or, with ``trolley_body = "solid"``, the four glued
+    to the trolley's plate (``trolley_plate``; no ``wheel_top_k``). Elements of
+    ``solid_size`` in the rails, the wheels and the plate, ``fine`` in the girders' webs.
 
     One quarter is meshed — girder 2's half segment on the wheel-3 side and wheel 3 — and
     reflected in the planes x = 0 and y = the trolley's centre into the four (the zones are
@@ -255,19 +277,13 @@ def _solid_zones(
         ]
         pieces, _ = occ.fragment([(3, girder)], [(3, r) for r in rails])
         zone = [t for _, t in pieces]
-        patches: list[tuple[str, int]] = []
-        if m.flanges:
-            block, patches = _flanged_wheel(m, (xw, yw))
-        else:
-            block = occ.addBox(
-                xw - 0.5 * m.wheel_width,
-                yw - 0.5 * m.wheel_length,
-                rail_top,
-                m.wheel_width,
-                m.wheel_length,
-                m.wheel_height,
-            )
-        occ.synchronize()
+        plate = None
+        if m.trolley_body == "solid":  # its quarter: x >= 0, y <= the trolley's centre
+            y0 = m.trolley_position - 0.5 * m.frame_length
+            width = 0.5 * m.girder_spacing + m.frame_overhang
+            top_w = rail_top + m.wheel_height
+            plate = occ.addBox(0.0, y0, top_w, width, yc - y0, m.frame_thickness)
+        block, plate, patches = _wheel_and_plate(m, (xw, yw), plate)
 
         def faces(vols: list[int], axis: int, value: float, lo: float | None = None) -> list[int]:
             out = set()
@@ -294,8 +310,11 @@ def _solid_zones(
             (2, "rail_top_2"): faces(zone, 2, rail_top, y_lo),
             (3, "wheel_3"): [block],
             (2, "wheel_bottom_3"): faces([block], 2, rail_top),
-            (2, "wheel_top_3"): faces([block], 2, rail_top + m.wheel_height),
         }
+        if plate is None:  # the wheel's joint to the grillage's stub
+            groups[2, "wheel_top_3"] = faces([block], 2, rail_top + m.wheel_height)
+        else:
+            groups[3, "trolley_plate"] = [plate]
         for side, s in flange_sides(xw) if m.flanges else ():
             # The rail's side under the wheels (its middle part: the contact surface) and
             # the flange's face below the rail top (the contact points), ``clearance`` off.
@@ -307,6 +326,8 @@ def _solid_zones(
         """The image's group: x = 0 swaps girder 2 (wheels 3, 4) for girder 1 (wheels 1, 2),
         the trolley's centre plane the wheel pair's two (3 ↔ 4, 1 ↔ 2) and the ends a ↔ b."""
         in_x, in_y = copy & 1, copy >> 1 & 1
+        if name == "trolley_plate":  # one body across both planes
+            return name
         if name.startswith("zone_2_a"):
             return f"zone_{2 - in_x}_{'b' if in_y else 'a'}"
         if name.startswith(("zone_", "rail_")):
@@ -342,6 +363,8 @@ def _solid_zones(
                     "flange_face_in_{k}",
                     "flange_face_out_{k}",
                 ]
+                if stem == "wheel"
+                else []
             )
             faces = [f.format(k=k) for f in named if (2, f.format(k=k)) in entity]
             entity[3, v] = gmsh.model.addDiscreteEntity(3, -1, [entity[2, f] for f in faces])
@@ -369,11 +392,11 @@ def _section(
 
 
 def _member_sections(
-    m: Any, layout: FrameCraneLayout, girders: list[str], wheels: list[str]
+    m: Any, layout: FrameCraneLayout, girders: list[str], wheels: list[str] | None
 ) -> list[dict[str, Any]]:
-    """The members' ``[[section]]`` entries: end carriages, ``girders`` and the links, the
-    trolley grillage and hook, the wheel stubs ``wheels`` (those last two thin members with
-    the model's ``rotary_scale``)."""
+    """The members' ``[[section]]`` entries: end carriages, ``girders`` and the links, and
+    unless ``wheels`` is None (a solid trolley) the trolley grillage and hook and the wheel
+    stubs ``wheels`` (those last two thin members with the model's ``rotary_scale``)."""
     sec = [
         _section(
             m.end_carriage,
@@ -385,6 +408,10 @@ def _member_sections(
         _section(m.girder, girders, [0.0, 0.0, 1.0], layout.girder),
         # The links (vertical) carry the girder's section, a1 = x as the girder's.
         _section(m.girder, ["links"], [0.0, 1.0, 0.0], layout.girder),
+    ]
+    if wheels is None:
+        return sec
+    sec += [
         _section(
             m.trolley,
             ["trolley", "hook"],
@@ -497,22 +524,31 @@ def _expand_solid_zones(
     friction = float(wheel.get("friction", 0.0))
     rolling = friction > 0.0 and not bool(wheel.get("braked", True))
     girders = ["girder_1", "girder_2"]
-    stubs = [f"stub_{k}" for k in range(1, 5)]
-    lines = ["end_carriage_1", "end_carriage_2", "links", *girders, "trolley", "hook", *stubs]
     volumes = ["zone_1", "zone_2", *(f"wheel_{k}" for k in range(1, 5))]
-    out["section"] = _member_sections(m, layout, girders, stubs)
-    mat = data["material"]
-    if m.trolley is None and isinstance(mat, dict):
-        others = [g for g in lines + volumes if g not in ("trolley", "hook")]
-        out["material"] = _weighed_trolley(mat, layout, others)
-    out["support"] = [{"group": f"support_{k}"} for k in range(1, 5)]
-    if m.hoisted_mass > 0.0:
-        out["mass"] = [_hoisted_on_trolley(m)]
     out["joint"] = [
         {"face": f"zone_{k}_{e}", "node": f"joint_{k}_{e}", "name": f"girder_{k}_{e}"}
         for k in (1, 2)
         for e in ("a", "b")
-    ] + [{"face": f"wheel_top_{k}", "node": f"wheel_node_{k}"} for k in range(1, 5)]
+    ]
+    out["support"] = [{"group": f"support_{k}"} for k in range(1, 5)]
+    mat = data["material"]
+    if m.trolley_body == "solid":  # the plate carries the hoisted mass, as the mock-up's
+        lines = ["end_carriage_1", "end_carriage_2", "links", *girders]
+        volumes.append("trolley_plate")
+        out["section"] = _member_sections(m, layout, girders, None)
+        if m.hoisted_mass > 0.0:
+            out["mass"] = [{"group": "trolley_plate", "mass": m.hoisted_mass}]
+    else:
+        stubs = [f"stub_{k}" for k in range(1, 5)]
+        lines = ["end_carriage_1", "end_carriage_2", "links", *girders, "trolley", "hook"]
+        lines += stubs
+        out["section"] = _member_sections(m, layout, girders, stubs)
+        if m.trolley is None and isinstance(mat, dict):
+            others = [g for g in lines + volumes if g not in ("trolley", "hook")]
+            out["material"] = _weighed_trolley(mat, layout, others)
+        if m.hoisted_mass > 0.0:
+            out["mass"] = [_hoisted_on_trolley(m)]
+        out["joint"] += [{"face": f"wheel_top_{k}", "node": f"wheel_node_{k}"} for k in range(1, 5)]
     out["contact"] = [
         {
             "type": "surface",

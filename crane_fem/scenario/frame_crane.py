@@ -121,6 +121,11 @@ class FrameCraneModel(Section):
     #: wheels as blocks, tied to the beams by joints; issue 33) of elements ``solid_size``.
     wheel_zones: Literal["lines", "solid"] = "lines"
     solid_size: PositiveFloat = 0.02
+    #: The trolley: a beam grillage in its plate's mid-plane (``"grillage"``), or, with
+    #: ``wheel_zones = "solid"``, its plate as a 3D solid glued to the wheel blocks
+    #: (``"solid"``: one explicit body, the hoisted mass spread over the plate as the 3D
+    #: mock-up's; the grillage bends softer than the plate, benchmarks/RESULTS.md).
+    trolley_body: Literal["grillage", "solid"] = "grillage"
 
     @model_validator(mode="after")
     def _consistent(self) -> FrameCraneModel:
@@ -154,6 +159,14 @@ class FrameCraneModel(Section):
             raise ValueError("end_carriage_length must span both girders")
         if self.fine > self.size:
             raise ValueError("fine must not exceed size")
+        if self.trolley_body == "solid":
+            if self.wheel_zones != "solid":
+                raise ValueError("trolley_body = 'solid' needs wheel_zones = 'solid'")
+            if self.trolley is not None:
+                raise ValueError(
+                    "trolley: a grillage's section, not with trolley_body = 'solid' (the plate "
+                    "is frame_length x (girder_spacing + 2 frame_overhang) x frame_thickness)"
+                )
         if self.wheel_zones == "solid":
             if self.flanges and not self.flange_depth < self.rail_height:
                 raise ValueError(
@@ -191,8 +204,10 @@ class FrameCraneModel(Section):
     @property
     def groups(self) -> list[str]:
         if self.wheel_zones == "solid":  # its beams, then its solids
-            stubs = [f"stub_{k}" for k in range(1, 5)]
             beams = ["end_carriage_1", "end_carriage_2", "links", "girder_1", "girder_2"]
             wheels = [f"wheel_{k}" for k in range(1, 5)]
+            if self.trolley_body == "solid":
+                return [*beams, "zone_1", "zone_2", *wheels, "trolley_plate"]
+            stubs = [f"stub_{k}" for k in range(1, 5)]
             return [*beams, "trolley", "hook", *stubs, "zone_1", "zone_2", *wheels]
         return list(FRAME_CRANE_GROUPS) + (["rope"] if self.hoist == "rope" else [])
