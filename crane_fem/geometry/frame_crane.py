@@ -144,8 +144,8 @@ def frame_crane_layout(m: Any) -> FrameCraneLayout:
     xw = 0.5 * m.girder_spacing + m.frame_overhang
     centre = (0.0, m.trolley_position, level)
     if m.trolley_body == "solid":  # the plate and the wheels: one solid body (_solid_zones)
-        solids = _solid_zones(m, xs, wheels, seg)
-        return FrameCraneLayout(s, axis, rail_top, level, wheels, girder, 1.0, solids)
+        body = _solid_zones(m, xs, wheels, seg)
+        return FrameCraneLayout(s, axis, rail_top, level, wheels, girder, 1.0, body)
     for x in xs:
         s.member("trolley", (x, y0, level), (x, y1, level), size=m.size)
     for y in wheel_ys:
