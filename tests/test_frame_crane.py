@@ -283,6 +283,10 @@ BAD: dict[str, tuple[list[str], list[str]]] = {
         ],
         ["model", "trolley: a grillage's section, not with trolley_body = 'solid'"],
     ),
+    "trolley_size_without_a_solid_trolley": (
+        ["--set", "model.trolley_size=0.02"],
+        ["model", "trolley_size applies to trolley_body = 'solid'"],
+    ),
     "girder_box_incomplete": (
         ["--set", "model.girder={shape='box', b=0.1}"],
         ["model.girder.h", "missing"],

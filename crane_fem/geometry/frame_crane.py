@@ -299,7 +299,12 @@ def _solid_zones(
 
         top = hc + hg - 1e-9
 
+        plate_at = rail_top + m.wheel_height - 1e-9
+        plate_size = m.solid_size if m.trolley_size is None else m.trolley_size
+
         def size(dim: int, tag: int, px: float, py: float, pz: float, lc: float) -> float:
+            if plate is not None and pz >= plate_at:
+                return min(lc, plate_size)
             return min(lc, m.solid_size if pz >= top else m.fine)
 
         gmsh.model.mesh.setSizeCallback(size)

@@ -126,6 +126,8 @@ class FrameCraneModel(Section):
     #: (``"solid"``: one explicit body, the hoisted mass spread over the plate as the 3D
     #: mock-up's; the grillage bends softer than the plate, benchmarks/RESULTS.md).
     trolley_body: Literal["grillage", "solid"] = "grillage"
+    #: The solid trolley plate's elements (m; default ``solid_size``).
+    trolley_size: PositiveFloat | None = None
 
     @model_validator(mode="after")
     def _consistent(self) -> FrameCraneModel:
@@ -159,6 +161,8 @@ class FrameCraneModel(Section):
             raise ValueError("end_carriage_length must span both girders")
         if self.fine > self.size:
             raise ValueError("fine must not exceed size")
+        if self.trolley_size is not None and self.trolley_body != "solid":
+            raise ValueError("trolley_size applies to trolley_body = 'solid'")
         if self.trolley_body == "solid":
             if self.wheel_zones != "solid":
                 raise ValueError("trolley_body = 'solid' needs wheel_zones = 'solid'")
