@@ -23,7 +23,8 @@ girders), z up. Members, each a line group:
 
 The trolley grillage's members have the plate's thickness and a third of its length as width
 (its bending in both directions), its density scaled so that the grillage weighs what the
-plate does.
+plate does. With ``wheel_zones = "solid"`` and ``trolley_body = "solid"`` there is no
+grillage, hook or stub: the plate is a solid glued to the wheel blocks (:func:`_solid_zones`).
 """
 
 from __future__ import annotations
