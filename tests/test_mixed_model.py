@@ -349,68 +349,44 @@ def test_demo_is_checked(capsys: pytest.CaptureFixture[str]) -> None:
     assert "newmark on girder" in out or COMM.rank > 0  # (rank 0 prints)
 
 
+#: The defaults' trolley: plate 1.2 x 0.8 x 0.05 m, four wheel blocks 0.05 x 0.08 x 0.06 m, 200 kg.
+TROLLEY_WEIGHT = 9.81 * (7800.0 * (1.2 * 0.8 * 0.05 + 4 * 0.05 * 0.08 * 0.06) + 200.0)
+
+
 @pytest.mark.serial  # set-up and 2 ms; the mixed models' two-rank runs are tested above
-def test_frame_crane_with_solid_wheel_zones(shared_tmp: Path) -> None:
+@pytest.mark.parametrize(("trolley", "interface"), [("grillage", 48), ("solid", 24)])
+def test_frame_crane_with_solid_wheel_zones(shared_tmp: Path, trolley: str, interface: int) -> None:
     """The frame crane with solid wheel zones (``model.wheel_zones = "solid"``): a mixed gmsh
-    scene made from its geometry keys — eight joints (each girder's segment at both ends,
-    each wheel block at its stub: 48 interface unknowns), four node-to-surface wheels. Its
-    preload through the joints: the supports carry the whole weight (Σ F_z = weight within
-    1e-8), the four wheels the trolley's by symmetry (equal within 1e-9: the zones' meshes
-    are mirror images of one quarter's); 2 ms after it, the balance ≤ 1e-8."""
+    scene made from its geometry keys, four node-to-surface wheels. With the grillage trolley
+    eight joints (each girder's segment at both ends, each wheel block at its stub: 48
+    interface unknowns); with ``model.trolley_body = "solid"`` the trolley's plate a solid
+    glued to the four blocks (one explicit body with the zones, the hoisted mass spread over
+    it as the 3D mock-up's) and four joints (24 unknowns). Its preload through the joints:
+    the supports carry the whole weight (Σ F_z = weight within 1e-8), the four wheels the
+    trolley's by symmetry (equal within 1e-9: the zones' meshes are mirror images of one
+    quarter's) — the solid trolley's exactly g (ρ V + 200 kg) within 1e-8 (the grillage's
+    stubs weigh beside it); 2 ms after it, the balance ≤ 1e-8."""
     toml = (
-        'name = "frame_crane_solid"\n[model]\nkind = "frame_crane"\nhoisted_mass = 200.0\n'
-        'wheel_zones = "solid"\nsolid_size = 0.04\nfine = 0.05\n'
-        "[material]\nE = 2.1e11\nrho = 7800.0\nnu = 0.3\n"
-        "[loading]\ngravity = [0.0, 0.0, -9.81]\n"
-        '[coupling]\nmethod = "gc-mean"\nratio = 20\n[newmark]\nmass = "lumped"\n'
-        "[time]\nend = 0.002\ndt_factor = 0.9\n[output]\nxdmf = false\n"
-    )
-    path = write(shared_tmp / "frame_crane_solid.toml", toml)
-    out = shared_tmp / "frame_crane_solid"
-    assert main(["run", str(path), "-o", str(out), "--no-progress"]) == 0
-    s = json.loads((out / "summary.json").read_text())
-    assert s["interface_dofs"] == 48
-    assert s["explicit_subdomains"] == ["wheel_zones"] and s["implicit_subdomains"] == ["beams"]
-    weight = s["preload"]["weight_N"]
-    fz = sum(sup["initial_force_N"][2] for sup in s["supports"].values())
-    assert abs(fz - weight) <= 1e-8 * weight
-    w = s["preload"]["contact_forces_N"]
-    for k in (2, 3, 4):
-        assert abs(w[f"wheel_{k}"] - w["wheel_1"]) <= 1e-9 * w["wheel_1"], w
-    assert s["energy_balance_error"] <= 1e-8
-
-
-@pytest.mark.serial  # set-up and 2 ms; the mixed models' two-rank runs are tested above
-def test_frame_crane_with_a_solid_trolley(shared_tmp: Path) -> None:
-    """``model.trolley_body = "solid"``: the trolley's plate a 3D solid glued to the four
-    wheel blocks (one explicit body with the zones), the hoisted mass spread over the plate
-    as the 3D mock-up's; the bridge's beams joined to the girders' segments only (four
-    joints: 24 interface unknowns). Its preload: the supports carry the whole weight (Σ F_z
-    = weight within 1e-8), the four wheels the trolley's — the plate, the four blocks and
-    the hoisted mass, g (ρ V + 200 kg), within 1e-8 — alike within 1e-9 (the plate's and the
-    zones' meshes mirror images of one quarter's); 2 ms after it, the balance ≤ 1e-8."""
-    toml = (
-        'name = "frame_crane_solid_trolley"\n[model]\nkind = "frame_crane"\n'
-        'hoisted_mass = 200.0\nwheel_zones = "solid"\ntrolley_body = "solid"\n'
+        f'name = "frame_crane_solid_{trolley}"\n[model]\nkind = "frame_crane"\n'
+        f'hoisted_mass = 200.0\nwheel_zones = "solid"\ntrolley_body = "{trolley}"\n'
         "solid_size = 0.04\nfine = 0.05\n"
         "[material]\nE = 2.1e11\nrho = 7800.0\nnu = 0.3\n"
         "[loading]\ngravity = [0.0, 0.0, -9.81]\n"
         '[coupling]\nmethod = "gc-mean"\nratio = 20\n[newmark]\nmass = "lumped"\n'
         "[time]\nend = 0.002\ndt_factor = 0.9\n[output]\nxdmf = false\n"
     )
-    path = write(shared_tmp / "frame_crane_solid_trolley.toml", toml)
-    out = shared_tmp / "frame_crane_solid_trolley"
+    path = write(shared_tmp / f"frame_crane_solid_{trolley}.toml", toml)
+    out = shared_tmp / f"frame_crane_solid_{trolley}"
     assert main(["run", str(path), "-o", str(out), "--no-progress"]) == 0
     s = json.loads((out / "summary.json").read_text())
-    assert s["interface_dofs"] == 24
+    assert s["interface_dofs"] == interface
     assert s["explicit_subdomains"] == ["wheel_zones"] and s["implicit_subdomains"] == ["beams"]
     weight = s["preload"]["weight_N"]
     fz = sum(sup["initial_force_N"][2] for sup in s["supports"].values())
     assert abs(fz - weight) <= 1e-8 * weight
-    # The defaults' plate (1.2 x 0.8 x 0.05 m) and wheel blocks (0.05 x 0.08 x 0.06 m).
-    trolley = 9.81 * (7800.0 * (1.2 * 0.8 * 0.05 + 4 * 0.05 * 0.08 * 0.06) + 200.0)
     w = s["preload"]["contact_forces_N"]
-    assert sum(w.values()) == pytest.approx(trolley, rel=1e-8)
+    if trolley == "solid":
+        assert sum(w.values()) == pytest.approx(TROLLEY_WEIGHT, rel=1e-8)
     for k in (2, 3, 4):
         assert abs(w[f"wheel_{k}"] - w["wheel_1"]) <= 1e-9 * w["wheel_1"], w
     assert s["energy_balance_error"] <= 1e-8
