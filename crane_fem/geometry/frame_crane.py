@@ -278,12 +278,12 @@ def _solid_zones(
         ]
         pieces, _ = occ.fragment([(3, girder)], [(3, r) for r in rails])
         zone = [t for _, t in pieces]
+        block_top = rail_top + m.wheel_height  # the wheel blocks' top: the plate's bottom
         plate = None
         if m.trolley_body == "solid":  # its quarter: x >= 0, y <= the trolley's centre
             y0 = m.trolley_position - 0.5 * m.frame_length
             width = 0.5 * m.girder_spacing + m.frame_overhang
-            top_w = rail_top + m.wheel_height
-            plate = occ.addBox(0.0, y0, top_w, width, yc - y0, m.frame_thickness)
+            plate = occ.addBox(0.0, y0, block_top, width, yc - y0, m.frame_thickness)
         block, plate, patches = _wheel_and_plate(m, (xw, yw), plate)
 
         def faces(vols: list[int], axis: int, value: float, lo: float | None = None) -> list[int]:
@@ -299,8 +299,7 @@ def _solid_zones(
             return sorted(out)
 
         top = hc + hg - 1e-9
-
-        plate_at = rail_top + m.wheel_height - 1e-9
+        plate_at = block_top - 1e-9
         plate_size = m.solid_size if m.trolley_size is None else m.trolley_size
 
         def size(dim: int, tag: int, px: float, py: float, pz: float, lc: float) -> float:
@@ -318,7 +317,7 @@ def _solid_zones(
             (2, "wheel_bottom_3"): faces([block], 2, rail_top),
         }
         if plate is None:  # the wheel's joint to the grillage's stub
-            groups[2, "wheel_top_3"] = faces([block], 2, rail_top + m.wheel_height)
+            groups[2, "wheel_top_3"] = faces([block], 2, block_top)
         else:
             groups[3, "trolley_plate"] = [plate]
         for side, s in flange_sides(xw) if m.flanges else ():
