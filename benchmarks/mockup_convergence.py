@@ -33,6 +33,7 @@ import csv
 import json
 import sys
 import time
+import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -45,6 +46,7 @@ FRAME = ROOT / "demos" / "frame_crane.toml"
 MIXED = ROOT / "demos" / "frame_crane_solid.toml"
 PREVIOUS = ROOT / "benchmarks" / "out" / "frame_vs_mockup"
 COMMITTED = "committed"
+FINE = tomllib.loads(SOLID.read_text())["model"]["fine"]  # the wheels' zones' size (0.04 m)
 EXPLICIT = ['coupling.method="monolithic"', "output.xdmf=false"]
 QUANTITIES = (
     "first lift-off (ms)",
@@ -57,21 +59,28 @@ QUANTITIES = (
 
 
 def _mesh_sets(out: Path, size: str, reuse: bool) -> list[str]:
-    """The --set arguments that give the mock-up the mesh of ``size`` (none: committed)."""
+    """The --set arguments that give the mock-up the mesh of ``size`` (none: committed); below
+    the wheels' zones' size (``model.fine``, 0.04 m) those zones take ``size`` too."""
     if size == COMMITTED:
         return []
     mesh = out / f"crane_{size}.msh"
+    sizes = [f"model.size={size}"]
+    if float(size) < FINE:
+        sizes.append(f"model.fine={size}")
     if not (reuse and mesh.exists()):
-        _call([str(EXE), "mesh", str(SOLID), "--set", f"model.size={size}", "-o", str(mesh)])
-    return [f"model.mesh='{mesh}'", f"model.size={size}"]
+        _call([str(EXE), "mesh", str(SOLID), *_flags(sizes), "-o", str(mesh)])
+    return [f"model.mesh='{mesh}'", *sizes]
+
+
+def _flags(sets: list[str]) -> list[str]:
+    return [a for s in sets for a in ("--set", s)]
 
 
 def _modes(out: Path, size: str, degree: int, reuse: bool) -> dict[str, Any]:
     d = out / f"modes_p{degree}_{size}"
     if not (reuse and (d / "modes.json").exists()):
         cmd = [str(EXE), "modes", str(SOLID), "--n", "6", "--degree", str(degree)]
-        for s in _mesh_sets(out, size, True):
-            cmd += ["--set", s]
+        cmd += _flags(_mesh_sets(out, size, True))
         elapsed, _ = _call([*cmd, "--out", str(d)])
         (d / "process.json").write_text(json.dumps({"elapsed_s": elapsed}))
     return json.loads((d / "modes.json").read_text())
