@@ -3,7 +3,8 @@ the all-solid mock-up (demos/crane.toml) fully explicit with its conditioning en
 quantity of THEORY.md §8 (b) side by side (issue 33's acceptance table).
 
     .venv/bin/python benchmarks/mixed_vs_mockup.py [--out DIR] [--report FILE]
-        [--size S] [--set KEY=VALUE ...] [--reuse]
+        [--size S] [--set KEY=VALUE ...] [--mixed-set KEY=VALUE ...]
+        [--mockup-set KEY=VALUE ...] [--reuse]
 
 Runs (subprocesses, OMP_NUM_THREADS=1):
 
@@ -19,8 +20,9 @@ Runs (subprocesses, OMP_NUM_THREADS=1):
   zones add).
 
 ``--set KEY=VALUE`` makes a variant of both scenes (a key they share, e.g.
-``model.trolley_position=1.5``: the mock-up re-meshed there); give it its own ``--out`` and
-``--report``.
+``model.trolley_position=1.5``: the mock-up re-meshed there); ``--mockup-set`` changes the
+mock-up only (its mesh and runs, e.g. ``model.trolley_size``), ``--mixed-set`` the mixed
+crane only (its run in DIR/mixed_<keys>). Give a variant its own ``--out`` and ``--report``.
 
 The table judges each quantity by THEORY.md §8 (b): |run − reference| against max(its
 tolerance, the ensemble's spread) (``crane_fem.tolerances``: ``judge_runs``,
@@ -169,6 +171,14 @@ def main() -> None:
         help="a key of the mixed crane's only (e.g. model.trolley_body='\"solid\"'): its run "
         "in DIR/mixed_<keys>, the mock-up's reused with --reuse, repeatable",
     )
+    ap.add_argument(
+        "--mockup-set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a key of the mock-up's only (e.g. model.trolley_size=0.0125: its mesh and runs; "
+        "give the variant its own --out), repeatable",
+    )
     args = ap.parse_args()
     out: Path = args.out.resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -176,11 +186,12 @@ def main() -> None:
 
     mesh = out / f"crane_{args.size}.msh"
     if not (args.reuse and mesh.exists()):
-        sets = [a for kv in args.set for a in ("--set", kv)]
+        sets = [a for kv in [*args.set, *args.mockup_set] for a in ("--set", kv)]
         cmd = [str(EXE), "mesh", str(SOLID), "--set", f"model.size={args.size}", *sets]
         _call([*cmd, "-o", str(mesh)])
     variant = _assignments(args.set)
-    base = {"model.mesh": str(mesh), "model.size": float(args.size), **variant}
+    mockup_own = _assignments(args.mockup_set)
+    base = {"model.mesh": str(mesh), "model.size": float(args.size), **variant, **mockup_own}
     ref_settings = explicit_settings(SOLID, base=base)
     ref = _run(SOLID, out / "mockup", ref_settings, args.reuse)
     members = _ensemble(SOLID, ref_settings, ref, out / "ensemble", args.reuse)
@@ -210,13 +221,19 @@ def main() -> None:
         + (f" --size {args.size}" if args.size != "0.04" else "")
         + "".join(f" --set {kv}" for kv in args.set)
         + "".join(f" --mixed-set {kv}" for kv in args.mixed_set)
-        + (f" --out {args.out} --report {args.report}" if args.set or args.mixed_set else ""),
+        + "".join(f" --mockup-set {kv}" for kv in args.mockup_set)
+        + (
+            f" --out {args.out} --report {args.report}"
+            if args.set or args.mixed_set or args.mockup_set
+            else ""
+        ),
         "",
         f"Started {started}"
         + (" (--reuse: the runs of an earlier start)" if args.reuse else "")
         + "; serial processes, OMP_NUM_THREADS=1 (the ensemble two at a time). Reference: "
         f"`demos/crane.toml` fully explicit on a uniform {args.size} m P1 mesh "
-        f"({ref['dofs_explicit'] + ref['dofs_implicit']} DOFs, {ref['_process_s']:.0f} s), its "
+        + ("" if not mockup_own else "(" + ", ".join(args.mockup_set) + ") ")
+        + f"({ref['dofs_explicit'] + ref['dofs_implicit']} DOFs, {ref['_process_s']:.0f} s), its "
         "ensemble record × 0.995, × 1.005 and Δt × ½. Runs: `demos/frame_crane_solid.toml` "
         + ("as committed" if not own else "with " + ", ".join(args.mixed_set))
         + f" (gc-mean m = 20, {mixed['_process_s']:.0f} s) and `demos/frame_crane.toml` "

@@ -181,6 +181,25 @@ def _flange_patches(geo: CraneGeometry, k: int, on_wheels: set[int]) -> dict[str
     return groups
 
 
+def _plate_field(geo: CraneGeometry, zt: float) -> int:
+    """A gmsh Box size field of ``trolley_size`` over the trolley's plate (its bending locks
+    P1 tetrahedra: a few elements through its thickness), graded to ``size`` outside."""
+    assert geo.trolley_size is not None
+    field = gmsh.model.mesh.field
+    b = field.add("Box")
+    field.setNumber(b, "VIn", geo.trolley_size)
+    field.setNumber(b, "VOut", geo.size)
+    half = 0.5 * geo.girder_spacing + geo.frame_overhang
+    field.setNumber(b, "XMin", -half)
+    field.setNumber(b, "XMax", half)
+    field.setNumber(b, "YMin", geo.trolley_position - 0.5 * geo.frame_length)
+    field.setNumber(b, "YMax", geo.trolley_position + 0.5 * geo.frame_length)
+    field.setNumber(b, "ZMin", zt + geo.wheel_height)
+    field.setNumber(b, "ZMax", zt + geo.wheel_height + geo.frame_thickness)
+    field.setNumber(b, "Thickness", geo.zone_margin)
+    return b
+
+
 def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
     """Build and mesh the crane in the current gmsh session (rank 0 only; gmsh initialised).
 
@@ -358,6 +377,8 @@ def build_crane_model(geo: CraneGeometry) -> CraneMeshInfo:
         field.setNumber(b, "ZMax", zt + geo.wheel_height)
         field.setNumber(b, "Thickness", m)
         boxes.append(b)
+    if geo.trolley_size is not None:
+        boxes.append(_plate_field(geo, zt))
     fmin = field.add("Min")
     field.setNumbers(fmin, "FieldsList", boxes)
     field.setAsBackgroundMesh(fmin)

@@ -15,8 +15,8 @@ from crane_fem.geometry.crane_parameters import CraneGeometry
 __all__ = ["mesh_sidecar", "read_mesh_sidecar", "write_crane_mesh"]
 
 
-#: The geometry keys of the flanges, which sidecars written before them do not record.
-_FLANGE_KEYS = ("flanges", "flange_clearance", "flange_depth", "flange_thickness")
+#: The geometry keys sidecars written before them do not record (the flanges', the plate's).
+_LATER_KEYS = ("flanges", "flange_clearance", "flange_depth", "flange_thickness", "trolley_size")
 
 
 def mesh_sidecar(path: str | Path) -> Path:
@@ -25,11 +25,12 @@ def mesh_sidecar(path: str | Path) -> Path:
     return Path(path).with_suffix(".json")
 
 
-def read_mesh_sidecar(path: str | Path) -> dict[str, float] | None:
-    """The geometry (every :class:`CraneGeometry` field; ``flanges`` a bool) a crane mesh was
-    written from, read from its sidecar (:func:`mesh_sidecar`), or None if it has none (not
-    collective). A sidecar written before the flanges existed records none: their keys take
-    their defaults (flanges off).
+def read_mesh_sidecar(path: str | Path) -> dict[str, float | None] | None:
+    """The geometry (every :class:`CraneGeometry` field; ``flanges`` a bool, ``trolley_size``
+    None when not given) a crane mesh was written from, read from its sidecar
+    (:func:`mesh_sidecar`), or None if it has none (not collective). A sidecar written before
+    the flanges or the plate's size existed records none: their keys take their defaults
+    (flanges off, the plate at ``size``).
 
     Raises:
         ScenarioError: the sidecar is not one written by :func:`write_crane_mesh`.
@@ -38,15 +39,17 @@ def read_mesh_sidecar(path: str | Path) -> dict[str, float] | None:
     if not side.is_file():
         return None
     defaults = asdict(CraneGeometry())
-    values: dict[str, float] = {}
+    values: dict[str, float | None] = {}
     try:
         geometry = json.loads(side.read_text(encoding="utf-8"))["geometry"]
         for f in fields(CraneGeometry):
-            if f.name in _FLANGE_KEYS:
+            if f.name in _LATER_KEYS:
                 value = geometry.get(f.name, defaults[f.name])
             else:
                 value = geometry[f.name]
-            if isinstance(defaults[f.name], bool):
+            if value is None and defaults[f.name] is None:
+                values[f.name] = None
+            elif isinstance(defaults[f.name], bool):
                 if not isinstance(value, bool):
                     raise TypeError(f"{f.name} = {value!r} is not true or false")
                 values[f.name] = value

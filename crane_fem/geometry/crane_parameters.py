@@ -38,11 +38,15 @@ class CraneGeometry:
     flange_clearance: float = 0.005
     flange_depth: float = 0.02
     flange_thickness: float = 0.02
+    #: The trolley's plate's element size (None: the graded sizes' ``size``, as before).
+    trolley_size: float | None = None
 
     def validate(self) -> None:
         """Raise ScenarioError naming the first parameter out of range (before any meshing)."""
         signed = ("trolley_position", "zone_depth", "flanges", "flange_clearance")
-        positive = [k for k, v in self.__dict__.items() if k not in signed and v <= 0]
+        positive = [
+            k for k, v in self.__dict__.items() if k not in signed and v is not None and v <= 0
+        ]
         if positive:
             raise ScenarioError(
                 f"geometry.{positive[0]} must be > 0, got {getattr(self, positive[0])}"
@@ -88,6 +92,11 @@ class CraneGeometry:
             )
         if self.fine > self.size:
             raise ScenarioError("geometry.fine must not exceed geometry.size")
+        if self.trolley_size is not None and self.trolley_size > self.size:
+            raise ScenarioError(
+                f"geometry.trolley_size = {self.trolley_size} must not exceed geometry.size "
+                f"= {self.size}"
+            )
         if self.flange_clearance < 0.0:
             raise ScenarioError(
                 f"geometry.flange_clearance = {self.flange_clearance} must be >= 0 (the lateral "

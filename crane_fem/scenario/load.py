@@ -53,7 +53,7 @@ def _resolve_paths(data: dict[str, Any], base: Path) -> None:
             motion["record"] = str(base / record)
 
 
-def _fill_from_mesh(mdl: dict[str, Any]) -> tuple[list[str], dict[str, float] | None]:
+def _fill_from_mesh(mdl: dict[str, Any]) -> tuple[list[str], dict[str, float | None] | None]:
     """Give a crane's geometry keys that the scenario leaves out the values its
     ``model.mesh`` was written with (the mesh's sidecar, crane_fem.geometry.crane.mesh_sidecar).
     Returns the keys the scenario gives and the mesh's geometry (None: no sidecar)."""
@@ -68,7 +68,7 @@ def _fill_from_mesh(mdl: dict[str, Any]) -> tuple[list[str], dict[str, float] | 
 
 
 def _check_mesh_geometry(
-    mdl: CraneModel, given: list[str], written: dict[str, float] | None
+    mdl: CraneModel, given: list[str], written: dict[str, float | None] | None
 ) -> None:
     """A crane's ``model.mesh`` exists and its geometry keys given in the scenario are those
     it was written with. Not collective (every rank reads the same files, before any
@@ -94,8 +94,16 @@ def _check_mesh_geometry(
             )
         return
     for key in given:
-        value = float(getattr(mdl, key))
-        if abs(value - written[key]) > 1e-12 * max(abs(written[key]), 1.0):
+        value, was = getattr(mdl, key), written[key]
+        if value is None or was is None:
+            if value is was:
+                continue
+            raise ScenarioError(
+                f"model.{key} = {value} disagrees with model.mesh {mesh} (made with {key} = "
+                f"{was}, {mesh_sidecar(mesh).name}): drop the key to use that mesh, or unset "
+                "model.mesh to mesh the geometry (crane-fem mesh writes it)"
+            )
+        if abs(float(value) - was) > 1e-12 * max(abs(was), 1.0):
             raise ScenarioError(
                 f"model.{key} = {value:g} disagrees with model.mesh {mesh} (made with "
                 f"{key} = {written[key]:g}, {mesh_sidecar(mesh).name}): drop the key to use "

@@ -80,8 +80,9 @@ class CraneModel(Section):
     rail, ``flange_clearance`` off the rail sides, ``flange_thickness`` thick (part of
     ``wheel_k``; the other flange keys are ignored without it): lateral flange/rail-side
     node-to-node contacts (CraneMesh.flange_pairs), frictionless unilateral rows named
-    ``flange_in_k``/``flange_out_k``. The wheels' friction and brakes are the ``[wheel]``
-    section's."""
+    ``flange_in_k``/``flange_out_k``. ``trolley_size`` meshes the trolley's plate finer than
+    ``size`` (P1 tetrahedra lock in its bending). The wheels' friction and brakes are the
+    ``[wheel]`` section's."""
 
     kind: Literal["crane"]
     span: PositiveFloat = 4.0
@@ -109,6 +110,7 @@ class CraneModel(Section):
     flange_clearance: NonNegativeFloat = 0.005
     flange_depth: PositiveFloat = 0.02
     flange_thickness: PositiveFloat = 0.02
+    trolley_size: PositiveFloat | None = None
     hoisted_mass: NonNegativeFloat = 0.0
     mesh: str | None = None
 
