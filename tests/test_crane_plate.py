@@ -76,7 +76,7 @@ def test_committed_sidecars_read_as_no_plate_size() -> None:
 
 
 def test_a_plate_size_above_the_crane_size_is_refused_before_meshing() -> None:
-    with pytest.raises(ScenarioError, match="geometry.trolley_size = 0.2 must not exceed") as e:
+    with pytest.raises(ScenarioError, match=r"geometry\.trolley_size = 0\.2 must not exceed") as e:
         dataclasses.replace(PLAIN, trolley_size=0.2).validate()
     assert "\n" not in str(e.value)
 
