@@ -6,6 +6,7 @@ bit for bit (tests/test_flanges.py)."""
 
 import dataclasses
 import itertools
+import json
 from pathlib import Path
 
 import gmsh
@@ -68,11 +69,17 @@ def test_trolley_size_meshes_the_plate_at_its_size(tmp_path) -> None:
     assert sc.model.geometry() == fine  # type: ignore[union-attr]
 
 
-def test_committed_sidecars_read_as_no_plate_size() -> None:
-    """Sidecars written before the key read as the plate at the graded sizes (None)."""
+def test_sidecars_without_the_key_read_as_no_plate_size(tmp_path) -> None:
+    """The committed sidecars record none (null), and one written before the key existed
+    (the key absent) reads the same: the plate at the graded sizes."""
     side = read_mesh_sidecar(ROOT / "meshes" / "crane.msh")
     assert side is not None and side["trolley_size"] is None
     assert load_scenario(SCENE).model.geometry() == PLAIN  # type: ignore[union-attr]
+    record = json.loads((ROOT / "meshes" / "crane.json").read_text())
+    del record["geometry"]["trolley_size"]
+    (tmp_path / "old.json").write_text(json.dumps(record))
+    old = read_mesh_sidecar(tmp_path / "old.msh")
+    assert old == side
 
 
 def test_a_plate_size_above_the_crane_size_is_refused_before_meshing() -> None:
