@@ -96,19 +96,20 @@ def _check_mesh_geometry(
     for key in given:
         value, was = getattr(mdl, key), written[key]
         if value is None or was is None:
-            if value is was:
-                continue
+            same = value is was
+        else:
+            same = abs(float(value) - was) <= 1e-12 * max(abs(was), 1.0)
+        if not same:
             raise ScenarioError(
-                f"model.{key} = {value} disagrees with model.mesh {mesh} (made with {key} = "
-                f"{was}, {mesh_sidecar(mesh).name}): drop the key to use that mesh, or unset "
-                "model.mesh to mesh the geometry (crane-fem mesh writes it)"
-            )
-        if abs(float(value) - was) > 1e-12 * max(abs(was), 1.0):
-            raise ScenarioError(
-                f"model.{key} = {value:g} disagrees with model.mesh {mesh} (made with "
-                f"{key} = {written[key]:g}, {mesh_sidecar(mesh).name}): drop the key to use "
+                f"model.{key} = {_shown(value)} disagrees with model.mesh {mesh} (made with "
+                f"{key} = {_shown(was)}, {mesh_sidecar(mesh).name}): drop the key to use "
                 "that mesh, or unset model.mesh to mesh the geometry (crane-fem mesh writes it)"
             )
+
+
+def _shown(value: float | None) -> str:
+    """A geometry key's value in an error (``none``: a key not given, e.g. trolley_size)."""
+    return "none" if value is None else f"{value:g}"
 
 
 def load_scenario(
