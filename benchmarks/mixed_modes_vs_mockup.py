@@ -25,7 +25,6 @@ Only numbers read from the outputs; ``--reuse`` reads what DIR already holds.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
@@ -33,20 +32,15 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from frame_vs_mockup import EXE, ROOT, _call
-from mockup_convergence import MIXED, _modes
+from frame_vs_mockup import ROOT
+from mockup_convergence import MIXED, _modes, modes_in
 
 TOLERANCE = 0.03  # issue 33: "the first six frequencies within 3 %"
 
 
 def _mixed_modes(out: Path, trolley_size: str, reuse: bool) -> dict[str, Any]:
-    d = out / f"mixed_plate_{trolley_size}"
-    if not (reuse and (d / "modes.json").exists()):
-        cmd = [str(EXE), "modes", str(MIXED), "--n", "6"]
-        cmd += ["--set", f"model.trolley_size={trolley_size}", "--out", str(d)]
-        elapsed, _ = _call(cmd)
-        (d / "process.json").write_text(json.dumps({"elapsed_s": elapsed}))
-    return json.loads((d / "modes.json").read_text())
+    args = ["--set", f"model.trolley_size={trolley_size}"]
+    return modes_in(out / f"mixed_plate_{trolley_size}", MIXED, args, reuse)
 
 
 def _freqs(m: dict[str, Any]) -> list[float]:

@@ -76,14 +76,18 @@ def _flags(sets: list[str]) -> list[str]:
     return [a for s in sets for a in ("--set", s)]
 
 
-def _modes(out: Path, size: str, degree: int, reuse: bool) -> dict[str, Any]:
-    d = out / f"modes_p{degree}_{size}"
+def modes_in(d: Path, scene: Path, args: list[str], reuse: bool) -> dict[str, Any]:
+    """``crane-fem modes SCENE --n 6 ARGS --out d`` (its wall time in d/process.json) and its
+    modes.json; ``reuse``: the one already in ``d``."""
     if not (reuse and (d / "modes.json").exists()):
-        cmd = [str(EXE), "modes", str(SOLID), "--n", "6", "--degree", str(degree)]
-        cmd += _flags(_mesh_sets(out, size, True))
-        elapsed, _ = _call([*cmd, "--out", str(d)])
+        elapsed, _ = _call([str(EXE), "modes", str(scene), "--n", "6", *args, "--out", str(d)])
         (d / "process.json").write_text(json.dumps({"elapsed_s": elapsed}))
     return json.loads((d / "modes.json").read_text())
+
+
+def _modes(out: Path, size: str, degree: int, reuse: bool) -> dict[str, Any]:
+    args = ["--degree", str(degree), *_flags(_mesh_sets(out, size, True))]
+    return modes_in(out / f"modes_p{degree}_{size}", SOLID, args, reuse)
 
 
 def _run(scene: Path, d: Path, sets: list[str], reuse: bool) -> dict[str, Any]:
