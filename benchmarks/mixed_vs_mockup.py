@@ -237,7 +237,8 @@ def main() -> None:
         "ensemble record × 0.995, × 1.005 and Δt × ½. Runs: `demos/frame_crane_solid.toml` "
         + ("as committed" if not own else "with " + ", ".join(args.mixed_set))
         + f" (gc-mean m = 20, {mixed['_process_s']:.0f} s) and `demos/frame_crane.toml` "
-        f"fully explicit ({frame['_process_s']:.0f} s). The vertical record, 0.2 s.",
+        f"fully explicit ({frame['_process_s']:.0f} s). The vertical record, "
+        f"{ref['time_end_s']:g} s.",
         "",
         "A quantity passes when |run − mock-up| ≤ max(tolerance, spread); ratio = |run − "
         "mock-up| / that bound; **bold**: beyond it. Spread: the largest |member − mock-up| of the "
