@@ -60,6 +60,24 @@ def results_rows(summary: dict[str, Any]) -> list[dict[str, Any]]:
         c = s["centre_m"]
         add("peak_support_force", where, s["peak_force_N"], "N", s["peak_force_time_s"], c)
         add("peak_support_vertical", where, s["peak_vertical_N"], "N", s["peak_vertical_time_s"], c)
+        if "lowpass" in s:  # output.support_lowpass_hz
+            lp = s["lowpass"]
+            add(
+                "peak_support_force_lowpass",
+                where,
+                lp["peak_force_N"],
+                "N",
+                lp["peak_force_time_s"],
+                c,
+            )
+            add(
+                "peak_support_vertical_lowpass",
+                where,
+                lp["peak_vertical_N"],
+                "N",
+                lp["peak_vertical_time_s"],
+                c,
+            )
     return rows
 
 
@@ -135,6 +153,13 @@ def results_lines(summary: dict[str, Any]) -> list[str]:
         lines.append(
             f"support {name}: peak force {s['peak_force_N'] / 1e3:.3f} kN at "
             f"t = {s['peak_force_time_s']:.5f} s (vertical {s['peak_vertical_N'] / 1e3:.3f} kN)"
+            + (
+                f"; low-passed at {s['lowpass']['cutoff_hz']:g} Hz "
+                f"{s['lowpass']['peak_force_N'] / 1e3:.3f} kN "
+                f"(vertical {s['lowpass']['peak_vertical_N'] / 1e3:.3f} kN)"
+                if "lowpass" in s
+                else ""
+            )
         )
     return lines
 

@@ -12,7 +12,7 @@ from crane_fem.coupling import MacroRecord
 from crane_fem.coupling.system import CoupledSystem
 from crane_fem.pipeline import Simulation
 from crane_fem.points import GroundAcceleration
-from crane_fem.reactions import SupportReactions
+from crane_fem.reactions import SupportReactions, lowpass_peaks
 
 __all__ = ["SupportsMonitor", "create_supports", "observe_every"]
 
@@ -41,6 +41,11 @@ class SupportsMonitor:
         self._columns = [
             f"support{k + 1}_{names[c]}" for k in range(r.n_faces) for c in range(r.bs)
         ]
+        #: ``output.support_lowpass_hz``: the forces of the evaluation grid (every
+        #: ``every`` micro steps), kept for their low-passed peaks at the end.
+        self.cutoff = sim.scenario.output.support_lowpass_hz
+        self._series_t: list[float] = []
+        self._series_f: list[FloatArray] = []
         # The peaks between the sampling instants (crane_fem.reactions): at every record of a
         # coupled run, every ``output.peak_interval`` in a monolithic reference (a fully
         # explicit one's readings taken by the kernel, handed over once per record).
@@ -89,16 +94,44 @@ class SupportsMonitor:
         v = rec.implicit_v if self.on_implicit else rec.explicit_v
         assert u is not None and v is not None
         self.last = self.reactions.update(rec.t, u, v, self.ground(rec.t))
+        if self.cutoff is not None and rec.micro_step % self.every == 0:
+            self._series_t.append(rec.t)
+            self._series_f.append(self.last.copy())
 
     def summarize(self, summary: dict[str, Any]) -> None:
-        summary["supports"] = self.reactions.table()
+        table = self.reactions.table()
+        if self.cutoff is not None and self._series_t:
+            # (The reactions are global on every rank: the same peaks everywhere.)
+            low = lowpass_peaks(
+                np.asarray(self._series_t),
+                np.asarray(self._series_f),
+                self.cutoff,
+                self.reactions.translations,
+            )
+            for k, row in enumerate(table.values()):
+                row["lowpass"] = {
+                    "cutoff_hz": self.cutoff,
+                    "peak_force_N": float(low["peak"][k]),
+                    "peak_force_time_s": float(low["t_peak"][k]),
+                    "peak_vertical_N": float(low["peak_vertical"][k]),
+                    "peak_vertical_time_s": float(low["t_vertical"][k]),
+                }
+        summary["supports"] = table
 
     def state_dict(self) -> dict[str, Any]:
-        return {**self.reactions.state_dict(), "last": self.last.copy()}
+        state = {**self.reactions.state_dict(), "last": self.last.copy()}
+        if self.cutoff is not None:
+            shape = (len(self._series_t), *self.last.shape)
+            state["series_t"] = np.asarray(self._series_t, dtype=np.float64)
+            state["series_f"] = np.asarray(self._series_f, dtype=np.float64).reshape(shape)
+        return state
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         self.reactions.load_state_dict(state)
         self.last = np.array(state["last"], dtype=np.float64).reshape(self.last.shape)
+        if self.cutoff is not None:
+            self._series_t = [float(t) for t in np.asarray(state["series_t"])]
+            self._series_f = list(np.asarray(state["series_f"], dtype=np.float64))
 
     def destroy(self) -> None:
         self.reactions.destroy()

@@ -17,6 +17,7 @@ from crane_fem.pipeline.joints import JointRows, build_joints
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.preload import BondedPoints, Preload, bonded_preload, static_preload
 from crane_fem.preload.mixed import mixed_preload
+from crane_fem.reactions import LOWPASS_SAMPLES
 from crane_fem.scenario import BlockModel, FrameModel, GmshModel, Scenario
 from crane_fem.stability import (
     critical_time_step,
@@ -269,6 +270,27 @@ def _check_newmark_step(
         )
 
 
+def _check_lowpass(sc: Scenario, mesh: MeshStage, sample_dt: float) -> None:
+    """``output.support_lowpass_hz`` needs supports and reactions sampled at least
+    :data:`LOWPASS_SAMPLES` times a period of its cut-off. Raises ScenarioError."""
+    cutoff = sc.output.support_lowpass_hz
+    if cutoff is None:
+        return
+    if mesh.crane is None and not sc.support:
+        raise ScenarioError(
+            f"output.support_lowpass_hz = {cutoff:g}: this model has no supports (a crane's "
+            "clamped ends or [[support]] groups) whose forces it would filter"
+        )
+    interval = sc.output.stress_every * sample_dt
+    if cutoff * LOWPASS_SAMPLES * interval > 1.0 + 1e-9:
+        raise ScenarioError(
+            f"output.support_lowpass_hz = {cutoff:g}: the support forces are sampled every "
+            f"{interval:.4e} s (output.sample_interval × output.stress_every), fewer than "
+            f"{LOWPASS_SAMPLES} samples a period of the cut-off; take output.support_lowpass_hz "
+            f"<= {1.0 / (LOWPASS_SAMPLES * interval):.4g} or sample more often"
+        )
+
+
 def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
     """Preload, subdomains and steps (collective)."""
     mdl, mat = sc.model, sc.materials[0][1]  # E, ν, ρ where uniform (else mesh.materials)
@@ -392,6 +414,7 @@ def build_models(sc: Scenario, mesh: MeshStage) -> ModelStage:
         sample = sample_steps(sc, dt, unit)
         n_macro = math.ceil(n_steps / sample)
         end = n_steps
+    _check_lowpass(sc, mesh, sample * dt)
     return ModelStage(
         method,
         ratio,

@@ -740,6 +740,11 @@ class Scenario(Section):
                 "output.peak_interval: scenes with [[subdomain]] or [coupling] only (a 1D bar "
                 "has no supports' reactions)"
             )
+        if self.output.support_lowpass_hz is not None and not self.coupled_path:
+            raise ValueError(
+                "output.support_lowpass_hz: scenes with [[subdomain]] or [coupling] only (a 1D "
+                "bar has no supports' reactions)"
+            )
         if self.output.checkpoint_every is not None and not self.coupled_path:
             raise ValueError(
                 "output.checkpoint_every: checkpoints are written by scenes with [[subdomain]] "

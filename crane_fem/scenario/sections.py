@@ -290,6 +290,12 @@ class Output(Section):
     #: Crane: the bridge's peak von Mises stress and the support reactions are evaluated
     #: every this many samples.
     stress_every: PositiveInt = 1
+    #: The supports' peak forces also low-passed at this frequency (Hz; none: not): a
+    #: 4th-order Butterworth run forward and backward (zero phase) over the reactions'
+    #: samples, at least ten a period of the cut-off. After a landing a face rings at
+    #: 1–4 kHz, a band the beam models do not resolve as a solid does
+    #: (benchmarks/out/supports_band.md).
+    support_lowpass_hz: PositiveFloat | None = None
     progress: bool | Literal["auto"] = "auto"
     #: Write the full state every this many samples (``crane-fem run --restart OUTDIR``
     #: continues from the latest one); scenes with subdomains only.
