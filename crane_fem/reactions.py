@@ -30,7 +30,6 @@ import numpy.typing as npt
 import scipy.sparse
 from mpi4py import MPI
 from petsc4py import PETSc
-from scipy.signal import butter, sosfiltfilt
 
 from crane_fem.model import assemble_operators
 from crane_fem.subdomains import Subdomain
@@ -82,6 +81,8 @@ def lowpass_peaks(
     ``times`` (m,). Returns ``peak``, ``t_peak``, ``peak_vertical``, ``t_vertical`` (each
     (n_faces,)). Below 2 samples the forces are read as they are; the filter's edge padding
     (three periods of the cut-off) is shortened to what a short series holds."""
+    from scipy.signal import butter, sosfiltfilt  # (2 s to import: only when asked)
+
     times = np.asarray(times, dtype=np.float64)
     f = np.asarray(forces, dtype=np.float64)[:, :, :translations]
     if times.size >= 2:
