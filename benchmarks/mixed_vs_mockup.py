@@ -242,7 +242,9 @@ def main() -> None:
         "",
         "A quantity passes when |run − mock-up| ≤ max(tolerance, spread); ratio = |run − "
         "mock-up| / that bound; **bold**: beyond it. Spread: the largest |member − mock-up| of the "
-        "ensemble (beyond-conditioning quantities: spread > tolerance).",
+        "ensemble (beyond-conditioning quantities: spread > tolerance). ↑: a max uplift that is "
+        "a flight still rising at the window's end, in that run or the mock-up (a lower bound of "
+        "its apex; `max_uplift_at_end`).",
         "",
         "| quantity | where | mock-up | spread | tolerance | mixed | ratio | frame | ratio |",
         "|---|---|---|---|---|---|---|---|---|",
@@ -265,7 +267,8 @@ def main() -> None:
             ok = c.ok
             counts[label][1] += 0 if ok else 1
             r = f"{c.ratio:.2f}"
-            cells += [_fmt(c.value, c.unit), r if ok else f"**{r}**"]
+            mark = " ↑" if c.note.startswith("still rising") else ""
+            cells += [_fmt(c.value, c.unit) + mark, r if ok else f"**{r}**"]
         lines.append(
             f"| {c0.quantity} | {c0.where} | {_fmt(c0.reference, c0.unit)} | "
             f"{_fmt(c0.spread, c0.unit)} | {_fmt(c0.tolerance, c0.unit)} | "

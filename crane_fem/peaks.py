@@ -46,6 +46,7 @@ _ARRAYS = (
     "_flying",
     "_onset",
     "_height",
+    "_gap_last",
 )
 
 
@@ -77,6 +78,9 @@ class ContactPeaks:
         self._flying = np.zeros(n, dtype=bool)
         self._onset = np.zeros(n)
         self._height = np.zeros(n)
+        # The smallest gap of the last micro step: a largest gap there is a flight still
+        # rising at the run's end.
+        self._gap_last = np.full(n, -np.inf)
         self._t_last = 0.0
 
     def start(self, t: float, force: FloatArray, gap: FloatArray) -> None:
@@ -97,6 +101,7 @@ class ContactPeaks:
         self.peak_force[better] = force[j, cols][better]
         self.peak_time[better] = t[j][better]
         np.maximum(self.max_gap, gap.max(axis=0), out=self.max_gap)
+        self._gap_last[:] = gap[-1]
         off = gap > LIFT_GAP
         # Where each group opens or closes in this trace (after its state at the last one):
         # a group in flight throughout (a flange, clear of its rail side) only rises.
@@ -235,6 +240,9 @@ class ContactPeaks:
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
         for k in _ARRAYS:
+            if k == "_gap_last" and k not in state:  # (a checkpoint before it was kept)
+                self._gap_last[:] = -np.inf
+                continue
             src = np.asarray(state[k])
             if src.shape != getattr(self, k).shape:
                 raise ValueError(f"contact peaks state {k!r}: shape {src.shape} does not match")
@@ -245,7 +253,9 @@ class ContactPeaks:
 
     def table(self) -> dict[str, dict[str, Any]]:
         """Per group: ``lift_offs`` (count, intervals [onset, end]; a flight still under way
-        ends at the last time), ``max_uplift_m``, ``peak_force_N``, ``peak_force_time_s``,
+        ends at the last time), ``max_uplift_m``, ``max_uplift_at_end`` (the largest gap is
+        the last micro step's, a lift-off still rising: the window cuts the flight and the
+        value is a lower bound of its apex), ``peak_force_N``, ``peak_force_time_s``,
         ``impacts`` (each: onset ``t_s``, ``impulse_Ns``, ``duration_s``, ``peak_force_N``;
         one still under way ends at the last time)."""
         out: dict[str, dict[str, Any]] = {}
@@ -256,6 +266,9 @@ class ContactPeaks:
             out[name] = {
                 "lift_offs": {"count": len(intervals), "intervals": intervals},
                 "max_uplift_m": float(max(self.max_gap[k], 0.0)),
+                "max_uplift_at_end": bool(
+                    self.max_gap[k] > LIFT_HEIGHT and self._gap_last[k] >= self.max_gap[k]
+                ),
                 "peak_force_N": float(self.peak_force[k]),
                 "peak_force_time_s": float(self.peak_time[k]),
                 "impacts": list(self.impacts[k]) + self._open_impact(k),

@@ -207,7 +207,8 @@ def judge_runs(
     values = {q.key: q.value for q in signoff_quantities(run)}
     checks: list[Check] = []
     for q in signoff_quantities(ref):
-        checks.append(Check(q.quantity, q.where, values.get(q.key, 0.0), q.value, q.unit))
+        note = _cut_by_the_window(q, run, ref) if q.quantity == "max uplift" else q.note
+        checks.append(Check(q.quantity, q.where, values.get(q.key, 0.0), q.value, q.unit, note))
         part = ref.get("peak_bridge_von_mises_part")
         if q.quantity == "bridge peak von Mises" and part:
             there = run.get("peak_bridge_von_mises_by_part_Pa", {}).get(part, 0.0)
@@ -216,6 +217,20 @@ def judge_runs(
     if run_spectra is not None and ref_spectra is not None:
         checks += _spectra_checks(run_spectra, ref_spectra)
     return checks
+
+
+def _cut_by_the_window(q: Quantity, run: dict[str, Any], ref: dict[str, Any]) -> str:
+    """A wheel's max uplift that is a flight still rising at a run's end (``peaks``:
+    ``max_uplift_at_end``) is a lower bound, not an apex: say in which run(s)."""
+    key = q.where.removeprefix("wheel ")
+    cut = [
+        label
+        for label, s in (("run", run), ("reference", ref))
+        if s.get("wheels", {}).get(key, {}).get("max_uplift_at_end")
+    ]
+    if not cut:
+        return ""
+    return f"still rising at the window's end in the {' and the '.join(cut)}: a lower bound"
 
 
 def _spectra_checks(

@@ -54,6 +54,38 @@ def test_contact_peaks_by_hand() -> None:
         ]
 
 
+def test_max_uplift_at_the_runs_end() -> None:
+    """A largest uplift at the last micro step — a flight still rising when the run ends — is
+    flagged (``max_uplift_at_end``: the window cuts the flight, its value a lower bound of
+    the apex), whatever the chunking and across a checkpoint; not a flight that has passed
+    its apex, not a chatter below LIFT_HEIGHT, not a landed flight higher than the one under
+    way. Groups: rising at the end (3 mm at the last step), past its apex (4 mm, falling),
+    landed at 3 mm then rising to 2 mm, chatter rising to 0.5 LIFT_HEIGHT."""
+    dt = 0.5
+    t = dt * np.arange(1, 11, dtype=np.float64)
+    gap = np.zeros((10, 4))
+    gap[5:, 0] = [1e-4, 5e-4, 1e-3, 2e-3, 3e-3]
+    gap[5:, 1] = [1e-3, 4e-3, 3e-3, 2e-3, 1e-3]
+    gap[1:4, 2] = [1e-3, 3e-3, 1e-3]
+    gap[7:, 2] = [5e-4, 1e-3, 2e-3]
+    gap[8:, 3] = [0.2 * LIFT_HEIGHT, 0.5 * LIFT_HEIGHT]
+    impulse = np.where(gap > LIFT_GAP, 0.0, dt)
+    names = ["rising", "falling", "landed", "chatter"]
+    for sizes in ([10], [1] * 10, [4, 6], [9, 1]):
+        peaks = ContactPeaks(names, dt)
+        _feed(peaks, t[: sizes[0]], impulse[: sizes[0]], gap[: sizes[0]], [sizes[0]])
+        again = ContactPeaks(names, dt)  # a restart from the state after the first chunk
+        again.load_state_dict(peaks.state_dict())
+        _feed(again, t[sizes[0] :], impulse[sizes[0] :], gap[sizes[0] :], sizes[1:])
+        flags = {k: v["max_uplift_at_end"] for k, v in again.table().items()}
+        assert flags == {"rising": True, "falling": False, "landed": False, "chatter": False}
+    old = peaks.state_dict()  # a checkpoint written before the flag: read as not at the end
+    del old["_gap_last"]
+    fresh = ContactPeaks(names, dt)
+    fresh.load_state_dict(old)
+    assert not any(v["max_uplift_at_end"] for v in fresh.table().values())
+
+
 def test_an_impact_holds_its_rattle_and_ends_after_a_quiet_spell() -> None:
     """Δt = 0.1 ms, so an impact ends after 10 quiet steps (IMPACT_QUIET = 1 ms). A landing
     strikes in three bursts 5 quiet steps apart (one impact), then the force stays at the

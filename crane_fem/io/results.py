@@ -29,6 +29,8 @@ def results_rows(summary: dict[str, Any]) -> list[dict[str, Any]]:
         where = f"{label} {name}"
         add("peak_contact_force", where, w["peak_force_N"], "N", w["peak_force_time_s"])
         add("max_uplift", where, w["max_uplift_m"], "m")
+        if w.get("max_uplift_at_end"):  # a flight still rising at the end: a lower bound
+            add("max_uplift_at_end", where, 1, "flag", summary.get("t_reached_s"))
         add("lift_offs", where, w["lift_offs"]["count"], "count")
         for k, imp in enumerate(w.get("impacts", []), start=1):
             add(f"impact_{k}_impulse", where, imp["impulse_Ns"], "N s", imp["t_s"])
@@ -139,6 +141,14 @@ def results_lines(summary: dict[str, Any]) -> list[str]:
                 f"{name:>8}  {w['peak_force_N'] / 1e3:15.3f}  {w['peak_force_time_s']:8.5f}  "
                 f"{w['max_uplift_m'] * 1e3:11.3f}  {w['lift_offs']['count']:9d}  "
                 f"{len(imps):7d}  {big:21.4g}"
+            )
+        rising = [name for name, w in groups.items() if w.get("max_uplift_at_end")]
+        if rising:
+            which = ", ".join(rising)
+            lines.append(
+                f"{label} {which}: the largest uplift is the last instant's, a flight still "
+                "rising when the run ends: a lower bound of its apex (lengthen time.end to read "
+                "it)"
             )
     lines += _sliding_lines(summary)
     lines += _contact_slip_lines(summary)
