@@ -74,6 +74,8 @@ class ContactPeaks:
         self.peak_time = np.zeros(n)
         self.max_gap = np.full(n, -np.inf)
         self.lift_offs: list[list[list[float]]] = [[] for _ in range(n)]
+        #: Each lift-off's apex (its largest gap, m), in the order of ``lift_offs``.
+        self.apexes: list[list[float]] = [[] for _ in range(n)]
         # The separation under way at the end of the last trace: onset time and height.
         self._flying = np.zeros(n, dtype=bool)
         self._onset = np.zeros(n)
@@ -226,6 +228,7 @@ class ContactPeaks:
         lift = bool(self._height[k] > LIFT_HEIGHT)
         if lift:
             self.lift_offs[k].append([float(self._onset[k]), t_end])
+            self.apexes[k].append(float(self._height[k]))
         self._flying[k] = False
         return lift
 
@@ -236,6 +239,7 @@ class ContactPeaks:
         out["t_last"] = self._t_last
         out["lift_offs"] = json.dumps(self.lift_offs)
         out["impacts"] = json.dumps(self.impacts)
+        out["apexes"] = json.dumps(self.apexes)
         return out
 
     def load_state_dict(self, state: dict[str, Any]) -> None:
@@ -250,10 +254,17 @@ class ContactPeaks:
         self._t_last = float(state["t_last"])
         self.lift_offs = json.loads(state["lift_offs"])
         self.impacts = json.loads(state["impacts"])
+        # (A checkpoint before the apexes were kept: none for its earlier flights.)
+        apexes = state.get("apexes")
+        if apexes is None:
+            self.apexes = [[float("nan")] * len(f) for f in self.lift_offs]
+        else:
+            self.apexes = json.loads(apexes)
 
     def table(self) -> dict[str, dict[str, Any]]:
-        """Per group: ``lift_offs`` (count, intervals [onset, end]; a flight still under way
-        ends at the last time), ``max_uplift_m``, ``max_uplift_at_end`` (the largest gap is
+        """Per group: ``lift_offs`` (count, intervals [onset, end], ``apex_m`` each one's
+        largest gap; a flight still under way ends at the last time, its apex so far),
+        ``max_uplift_m``, ``max_uplift_at_end`` (the largest gap is
         the last micro step's, a lift-off still rising: the window cuts the flight and the
         value is a lower bound of its apex), ``peak_force_N``, ``peak_force_time_s``,
         ``impacts`` (each: onset ``t_s``, ``impulse_Ns``, ``duration_s``, ``peak_force_N``;
@@ -261,10 +272,12 @@ class ContactPeaks:
         out: dict[str, dict[str, Any]] = {}
         for k, name in enumerate(self.names):
             intervals = list(self.lift_offs[k])
+            apexes = list(self.apexes[k])
             if self._flying[k] and self._height[k] > LIFT_HEIGHT:
                 intervals.append([float(self._onset[k]), self._t_last])
+                apexes.append(float(self._height[k]))
             out[name] = {
-                "lift_offs": {"count": len(intervals), "intervals": intervals},
+                "lift_offs": {"count": len(intervals), "intervals": intervals, "apex_m": apexes},
                 "max_uplift_m": float(max(self.max_gap[k], 0.0)),
                 "max_uplift_at_end": bool(
                     self.max_gap[k] > LIFT_HEIGHT and self._gap_last[k] >= self.max_gap[k]

@@ -37,7 +37,11 @@ def test_contact_peaks_by_hand() -> None:
         tables.append(peaks.table())
     assert all(tab == tables[0] for tab in tables)
     g = tables[0]["g"]
-    assert g["lift_offs"] == {"count": 2, "intervals": [[t[6], t[11]], [t[17], t[19]]]}
+    assert g["lift_offs"] == {
+        "count": 2,
+        "intervals": [[t[6], t[11]], [t[17], t[19]]],
+        "apex_m": [3e-3, 6e-4],  # the second still under way: its height so far
+    }
     assert g["max_uplift_m"] == 3e-3
     assert g["peak_force_N"] == 7.0
     assert g["peak_force_time_s"] == t[13]
@@ -77,13 +81,23 @@ def test_max_uplift_at_the_runs_end() -> None:
         again = ContactPeaks(names, dt)  # a restart from the state after the first chunk
         again.load_state_dict(peaks.state_dict())
         _feed(again, t[sizes[0] :], impulse[sizes[0] :], gap[sizes[0] :], sizes[1:])
-        flags = {k: v["max_uplift_at_end"] for k, v in again.table().items()}
+        table = again.table()
+        flags = {k: v["max_uplift_at_end"] for k, v in table.items()}
         assert flags == {"rising": True, "falling": False, "landed": False, "chatter": False}
+        apexes = {k: v["lift_offs"]["apex_m"] for k, v in table.items()}
+        assert apexes == {
+            "rising": [3e-3],
+            "falling": [4e-3],
+            "landed": [3e-3, 2e-3],
+            "chatter": [],
+        }
     old = peaks.state_dict()  # a checkpoint written before the flag: read as not at the end
-    del old["_gap_last"]
+    del old["_gap_last"], old["apexes"]
     fresh = ContactPeaks(names, dt)
     fresh.load_state_dict(old)
     assert not any(v["max_uplift_at_end"] for v in fresh.table().values())
+    landed = fresh.table()["landed"]["lift_offs"]["apex_m"]  # its landed flight's: unknown
+    assert np.isnan(landed[0]) and landed[1] == 1e-3  # (the state after 9 steps)
 
 
 def test_an_impact_holds_its_rattle_and_ends_after_a_quiet_spell() -> None:

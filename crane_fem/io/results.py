@@ -32,6 +32,11 @@ def results_rows(summary: dict[str, Any]) -> list[dict[str, Any]]:
         if w.get("max_uplift_at_end"):  # a flight still rising at the end: a lower bound
             add("max_uplift_at_end", where, 1, "flag", summary.get("t_reached_s"))
         add("lift_offs", where, w["lift_offs"]["count"], "count")
+        lifts = w["lift_offs"]
+        for k, (span, apex) in enumerate(
+            zip(lifts["intervals"], lifts.get("apex_m", []), strict=False), 1
+        ):
+            add(f"lift_off_{k}_apex", where, apex, "m", span[0])
         for k, imp in enumerate(w.get("impacts", []), start=1):
             add(f"impact_{k}_impulse", where, imp["impulse_Ns"], "N s", imp["t_s"])
             add(f"impact_{k}_peak_force", where, imp["peak_force_N"], "N", imp["t_s"])
