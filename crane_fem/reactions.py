@@ -34,7 +34,7 @@ from petsc4py import PETSc
 from crane_fem.model import assemble_operators
 from crane_fem.subdomains import Subdomain
 
-__all__ = ["SupportReactions", "face_labels", "lowpass_peaks"]
+__all__ = ["SupportReactions", "face_labels", "lowpass_limit", "lowpass_peaks"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -72,6 +72,12 @@ def face_labels(xy: FloatArray, comm: MPI.Comm) -> tuple[npt.NDArray[np.int64], 
 LOWPASS_SAMPLES = 10
 
 
+def lowpass_limit(interval: float) -> float:
+    """The highest cut-off (Hz) samples every ``interval`` (s) low-pass: :data:`LOWPASS_SAMPLES`
+    of them a period."""
+    return 1.0 / (LOWPASS_SAMPLES * interval)
+
+
 def lowpass_peaks(
     times: FloatArray, forces: FloatArray, cutoff: float, translations: int = 3
 ) -> dict[str, FloatArray]:
@@ -87,7 +93,7 @@ def lowpass_peaks(
     f = np.asarray(forces, dtype=np.float64)[:, :, :translations]
     if times.size >= 2:
         dt = float(np.median(np.diff(times)))
-        if cutoff * LOWPASS_SAMPLES * dt > 1.0 + 1e-9:
+        if cutoff > lowpass_limit(dt) * (1.0 + 1e-9):
             raise ValueError(
                 f"a cut-off of {cutoff:g} Hz needs samples every "
                 f"{1.0 / (LOWPASS_SAMPLES * cutoff):.4g} s at most (got {dt:.4g} s)"

@@ -17,7 +17,7 @@ from crane_fem.pipeline.joints import JointRows, build_joints
 from crane_fem.pipeline.mesh import MeshStage
 from crane_fem.preload import BondedPoints, Preload, bonded_preload, static_preload
 from crane_fem.preload.mixed import mixed_preload
-from crane_fem.reactions import LOWPASS_SAMPLES
+from crane_fem.reactions import LOWPASS_SAMPLES, lowpass_limit
 from crane_fem.scenario import BlockModel, FrameModel, GmshModel, Scenario
 from crane_fem.stability import (
     critical_time_step,
@@ -282,12 +282,12 @@ def _check_lowpass(sc: Scenario, mesh: MeshStage, sample_dt: float) -> None:
             "clamped ends or [[support]] groups) whose forces it would filter"
         )
     interval = sc.output.stress_every * sample_dt
-    if cutoff * LOWPASS_SAMPLES * interval > 1.0 + 1e-9:
+    if cutoff > lowpass_limit(interval) * (1.0 + 1e-9):
         raise ScenarioError(
             f"output.support_lowpass_hz = {cutoff:g}: the support forces are sampled every "
             f"{interval:.4e} s (output.sample_interval × output.stress_every), fewer than "
             f"{LOWPASS_SAMPLES} samples a period of the cut-off; take output.support_lowpass_hz "
-            f"<= {1.0 / (LOWPASS_SAMPLES * interval):.4g} or sample more often"
+            f"<= {lowpass_limit(interval):.4g} or sample more often"
         )
 
 
