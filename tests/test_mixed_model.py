@@ -516,12 +516,24 @@ def test_mixed_crane_with_a_solid_trolley_two_ranks_equal_serial(
     """The mixed crane of demos/frame_crane_solid.toml (its trolley's plate a solid glued to
     the wheel blocks, across the mesh's mirror planes; four joints) over its first 10 ms,
     split over two ranks: the history equals the serial one within 1e-8 of each column's
-    scale."""
+    scale, and so do the supports' low-passed peaks (the scene's ``output.support_lowpass_hz``;
+    the beams' point supports, on the implicit side)."""
     demo = Path(__file__).parent.parent / "demos" / "frame_crane_solid.toml"
     sets = ["time.end=0.01", "output.xdmf=false"]
     serial, par = two_ranks_and_serial(demo, sets, shared_tmp, tmp_path)
     h1, h2 = read_history(serial / "history.csv"), read_history(par / "history.csv")
     assert_same_histories(h1, h2, 1e-8)
+    low = [
+        {
+            k: s["lowpass"]
+            for k, s in json.loads((d / "summary.json").read_text())["supports"].items()
+        }
+        for d in (serial, par)
+    ]
+    assert low[0].keys() == low[1].keys() and len(low[0]) == 4
+    for k, a in low[0].items():
+        for q in ("peak_force_N", "peak_vertical_N"):
+            assert a[q] == pytest.approx(low[1][k][q], rel=1e-8), (k, q)
 
 
 @pytest.mark.serial  # two checks (mesh, subdomains, ω_max); no integration
