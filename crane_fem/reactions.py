@@ -104,14 +104,12 @@ def lowpass_peaks(
         pad = max(3 * (2 * sos.shape[0] + 1), math.ceil(3.0 / (cutoff * dt)))
         f = sosfiltfilt(sos, f, axis=0, padlen=min(pad, times.size - 1))
     out: dict[str, FloatArray] = {}
-    for name, values in (
-        ("peak", np.linalg.norm(f, axis=2)),
-        ("vertical", np.abs(f[:, :, translations - 1])),
+    for key, when, values in (
+        ("peak", "t_peak", np.linalg.norm(f, axis=2)),
+        ("peak_vertical", "t_vertical", np.abs(f[:, :, translations - 1])),
     ):
         j = np.argmax(values, axis=0)
-        key = "peak" if name == "peak" else "peak_vertical"
-        out[key] = values[j, np.arange(values.shape[1])]
-        out["t_peak" if name == "peak" else "t_vertical"] = times[j]
+        out[key], out[when] = values[j, np.arange(values.shape[1])], times[j]
     return out
 
 
