@@ -147,7 +147,12 @@ def _bridge_stress(run: dict[str, Any]) -> None:
 def main() -> None:
     import crane_fem  # noqa: F401  (MPI before the study's modules)
     from crane_fem.bench.common import explicit_settings
-    from crane_fem.tolerances import judge_runs, signoff_quantities, with_spread
+    from crane_fem.tolerances import (
+        CUT_BY_THE_WINDOW,
+        judge_runs,
+        signoff_quantities,
+        with_spread,
+    )
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "out" / "mixed_vs_mockup")
@@ -279,7 +284,7 @@ def main() -> None:
             ok = c.ok
             counts[label][1] += 0 if ok else 1
             r = f"{c.ratio:.2f}"
-            mark = " ↑" if c.note.startswith("still rising") else ""
+            mark = " ↑" if c.note.startswith(CUT_BY_THE_WINDOW) else ""
             cells += [_fmt(c.value, c.unit) + mark, r if ok else f"**{r}**"]
         lines.append(
             f"| {c0.quantity} | {c0.where} | {_fmt(c0.reference, c0.unit)} | "

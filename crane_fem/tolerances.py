@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "CUT_BY_THE_WINDOW",
     "TOLERANCES",
     "Check",
     "Quantity",
@@ -219,6 +220,10 @@ def judge_runs(
     return checks
 
 
+#: How a max-uplift check's note starts when a run's flight is still rising at its end.
+CUT_BY_THE_WINDOW = "still rising at the window's end"
+
+
 def _cut_by_the_window(q: Quantity, run: dict[str, Any], ref: dict[str, Any]) -> str:
     """A wheel's max uplift that is a flight still rising at a run's end (``peaks``:
     ``max_uplift_at_end``) is a lower bound, not an apex: say in which run(s)."""
@@ -230,7 +235,7 @@ def _cut_by_the_window(q: Quantity, run: dict[str, Any], ref: dict[str, Any]) ->
     ]
     if not cut:
         return ""
-    return f"still rising at the window's end in the {' and the '.join(cut)}: a lower bound"
+    return f"{CUT_BY_THE_WINDOW} in the {' and the '.join(cut)}: a lower bound"
 
 
 def _spectra_checks(
