@@ -419,3 +419,67 @@ def reference(name: str, rows: int | None = None) -> dict[str, np.ndarray]:
     """A reference history of tests/data/reference, its first ``rows`` rows if given."""
     with np.load(REFERENCE / f"{name}.npz") as data:
         return {k: data[k][:rows] for k in data.files}
+
+
+# ----------------------------------------------------------------------------------------
+#: The rolling cranes' push along their rails: a steady ground acceleration (m/s²) behind a
+#: half-cosine ramp (s), over a window (s).
+ROLL_A, ROLL_TAU, ROLL_T = 2.0, 0.002, 0.02
+
+
+def rolling_crane(tmp: Path, wheel_zones: str) -> Path:
+    """The frame crane (``wheel_zones`` "lines": point-on-line wheels, fully explicit;
+    "solid": node-to-surface wheels on solid zones, gc-mean m = 20), unbraked wheels μ = 0.3,
+    pushed along its rails (y) by :data:`ROLL_A` over :data:`ROLL_T`; its scene file."""
+    solid = wheel_zones == "solid"
+    zones = 'wheel_zones = "solid"\nsolid_size = 0.04\nfine = 0.05\n' if solid else ""
+    coupling = (
+        'method = "gc-mean"\nratio = 20\n[newmark]\nmass = "lumped"\n'
+        if solid
+        else 'method = "monolithic"\n'
+    )
+    name = "frame_crane_rolling" if solid else "frame_crane_rolling_lines"
+    toml = (
+        f'name = "{name}"\n[model]\nkind = "frame_crane"\nhoisted_mass = 200.0\n{zones}'
+        "[wheel]\nfriction = 0.3\nbraked = false\n"
+        "[material]\nE = 2.1e11\nrho = 7800.0\nnu = 0.3\n"
+        "[loading]\ngravity = [0.0, 0.0, -9.81]\n"
+        '[[loading.ground_motion]]\nrecord = "along.csv"\ndirection = [0.0, 1.0, 0.0]\n'
+        f"taper = {ROLL_TAU}\n"
+        f"[coupling]\n{coupling}"
+        f"[time]\nend = {ROLL_T}\ndt_factor = 0.9\n[output]\nxdmf = false\n"
+    )
+    path = tmp / f"{name}.toml"
+    if COMM.rank == 0:  # (the ranks of an mpiexec pass share ``tmp``)
+        (tmp / "along.csv").write_text(f"0.0,{ROLL_A}\n1.0,{ROLL_A}\n")
+        path.write_text(toml)
+    COMM.barrier()
+    return path
+
+
+def rigid_run_back(T: float) -> float:
+    """How far a body that nothing holds along the rails runs back under the rolling
+    cranes' push by ``T`` (m): x(τ) = Aτ²(1/4 − 1/π²), v(τ) = Aτ/2 over the ramp, then A."""
+    a, tau = ROLL_A, ROLL_TAU
+    return (
+        a * tau**2 * (0.25 - 1.0 / np.pi**2) + 0.5 * a * tau * (T - tau) + 0.5 * a * (T - tau) ** 2
+    )
+
+
+def assert_wheel_slip_on_rails(s: dict, h: dict) -> None:
+    """A frame crane's wheels' slip along (y) and across (x) their rails in the summary
+    (``wheels.<k>``, as the 3D crane's, and ``contact_groups.wheel_<k>``) is their mean slip
+    vector's of the history (``wheel_<k>_slip_y``/``_x``) at the sampling instants: the
+    largest |·| with its instant, the last; the trolley's drift their wheels' mean."""
+    finals = []
+    for k, w in s["wheels"].items():
+        row = s["contact_groups"][f"wheel_{k}"]
+        for d, c in (("along", "y"), ("across", "x")):
+            v = np.asarray(h[f"wheel_{k}_slip_{c}"])
+            i = int(np.argmax(np.abs(v)))
+            for table in (w, row):
+                assert table[f"max_slip_{d}_m"] == pytest.approx(abs(v[i]), rel=1e-12, abs=1e-18)
+                assert table[f"max_slip_{d}_time_s"] == pytest.approx(h["t"][i], rel=1e-12)
+                assert table[f"final_slip_{d}_m"] == pytest.approx(v[-1], rel=1e-12, abs=1e-18)
+        finals.append([w["final_slip_across_m"], w["final_slip_along_m"]])
+    assert s["trolley_drift_m"] == pytest.approx(np.mean(finals, axis=0).tolist(), rel=1e-12)

@@ -13,7 +13,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import COMM, assert_same_histories, error_line, two_ranks_and_serial
+from conftest import (
+    COMM,
+    assert_same_histories,
+    assert_wheel_slip_on_rails,
+    error_line,
+    rigid_run_back,
+    rolling_crane,
+    two_ranks_and_serial,
+)
 
 from crane_fem.cli import main
 from crane_fem.io import read_history
@@ -435,24 +443,6 @@ def test_flanges_of_the_solid_wheel_zones(shared_tmp: Path) -> None:
     assert s["energy_balance_error"] <= 1e-8
 
 
-def _rolling_crane(tmp: Path) -> Path:
-    """The mixed crane, unbraked wheels μ = 0.3, pushed along its rails by 2 m/s² (half-cosine
-    ramp τ = 2 ms) over 20 ms."""
-    write(tmp / "along.csv", "0.0,2.0\n1.0,2.0\n")
-    toml = (
-        'name = "frame_crane_rolling"\n[model]\nkind = "frame_crane"\nhoisted_mass = 200.0\n'
-        'wheel_zones = "solid"\nsolid_size = 0.04\nfine = 0.05\n'
-        "[wheel]\nfriction = 0.3\nbraked = false\n"
-        "[material]\nE = 2.1e11\nrho = 7800.0\nnu = 0.3\n"
-        "[loading]\ngravity = [0.0, 0.0, -9.81]\n"
-        '[[loading.ground_motion]]\nrecord = "along.csv"\ndirection = [0.0, 1.0, 0.0]\n'
-        "taper = 0.002\n"
-        '[coupling]\nmethod = "gc-mean"\nratio = 20\n[newmark]\nmass = "lumped"\n'
-        "[time]\nend = 0.02\ndt_factor = 0.9\n[output]\nxdmf = false\n"
-    )
-    return write(tmp / "frame_crane_rolling.toml", toml)
-
-
 @pytest.mark.serial  # two ranks: test_rolling_mixed_crane_two_ranks_equal_serial
 def test_unbraked_wheels_of_the_solid_zones_roll(shared_tmp: Path) -> None:
     """``wheel.braked = false`` with solid wheel zones: the wheels' node-to-surface contacts
@@ -464,8 +454,9 @@ def test_unbraked_wheels_of_the_solid_zones_roll(shared_tmp: Path) -> None:
     follows it within 1 % (measured −0.6 %: the pairs +2.1 and −3.2 %, the trolley's own
     along-rail vibration, set off by the ramp, in phase opposition at its two ends); across
     the rails they stay put (below 1 % of it, measured 0.3 %); the mirror images (1 ↔ 3,
-    2 ↔ 4) alike."""
-    path = _rolling_crane(shared_tmp)
+    2 ↔ 4) alike. The summary gives each wheel's slip along and across its rail (the
+    contacts' ``along = [0, 1, 0]``), its mean slip's components of the history."""
+    path = rolling_crane(shared_tmp, "solid")
     out = shared_tmp / "frame_crane_rolling"
     assert main(["run", str(path), "-o", str(out), "--no-progress"]) == 0
     s = json.loads((out / "summary.json").read_text())
@@ -473,10 +464,8 @@ def test_unbraked_wheels_of_the_solid_zones_roll(shared_tmp: Path) -> None:
     for k in range(1, 5):
         assert s["preload"]["contact_forces_N"][f"wheel_{k}"] == pytest.approx(braked, rel=1e-7)
     h = read_history(out / "history.csv")
-    a, tau, T = 2.0, 0.002, float(h["t"][-1])
-    # The rigid body's run back: x(τ) = aτ²(1/4 − 1/π²), v(τ) = aτ/2, then a.
-    rigid = a * tau**2 * (0.25 - 1.0 / np.pi**2) + 0.5 * a * tau * (T - tau)
-    rigid += 0.5 * a * (T - tau) ** 2
+    rigid = rigid_run_back(float(h["t"][-1]))
+    assert_wheel_slip_on_rails(s, h)
     along = [-float(h[f"wheel_{k}_slip_y"][-1]) for k in range(1, 5)]
     across = [float(h[f"wheel_{k}_slip_x"][-1]) for k in range(1, 5)]
     print(f"slips along {along} m, across {across} m; rigid body {rigid:.6e} m")
@@ -491,7 +480,7 @@ def test_rolling_mixed_crane_two_ranks_equal_serial(shared_tmp: Path, tmp_path: 
     """The rolling crane above, its wheels' rolling rows (one tangent each) and the loose
     preload split over two ranks: the history equals the serial one within 1e-8 of each
     column's scale (measured 7e-9 of the wheels' gaps)."""
-    serial, par = two_ranks_and_serial(_rolling_crane(shared_tmp), [], shared_tmp, tmp_path)
+    serial, par = two_ranks_and_serial(rolling_crane(shared_tmp, "solid"), [], shared_tmp, tmp_path)
     h1, h2 = read_history(serial / "history.csv"), read_history(par / "history.csv")
     assert_same_histories(h1, h2, 1e-8)
 

@@ -175,6 +175,12 @@ direction = [0.0, 1.0, 0.0]
     # off by the friction across (measured 1.2e-5 of the slip).
     assert along == pytest.approx(free, rel=1e-3)
     assert abs(across) < 0.01 * free
+    # Its slip along the rolling direction (the contact's ``along`` by default) and across it
+    # (along × n = x × z = −y) in the summary: the history's mean slip's components.
+    feet = summary["contact_groups"]["feet"]
+    assert feet["final_slip_along_m"] == pytest.approx(hist["feet_slip_x"][-1], rel=1e-12)
+    assert feet["final_slip_across_m"] == pytest.approx(-hist["feet_slip_y"][-1], rel=1e-12)
+    assert feet["max_slip_along_m"] == pytest.approx(np.abs(hist["feet_slip_x"]).max(), rel=1e-12)
     block_weight = 1000.0 * 0.06**3 * G
     assert summary["preload"]["contact_forces_N"]["feet"] == pytest.approx(block_weight, rel=1e-6)
 

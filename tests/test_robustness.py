@@ -198,6 +198,14 @@ def _cases(tmp: Path) -> dict[str, tuple[list[str], list[str]]]:
             own_text.replace("friction = 0.3", "friction = 0.3\nrolling = [0.0, 0.2, 1.0]"),
             ["contact[0].rolling = [0.0, 0.2, 1.0]", "nearer the normal", "'floor'"],
         ),
+        "gmsh_along_the_normal": (
+            own_text.replace("friction = 0.3", "friction = 0.3\nalong = [0.0, 0.0, -1.0]"),
+            ["contact[0].along = [0.0, 0.0, -1.0]", "nearer the normal", "'floor'"],
+        ),
+        "gmsh_along_zero": (
+            own_text.replace("friction = 0.3", "friction = 0.3\nalong = [0.0, 0.0, 0.0]"),
+            ["contact[0].along", "must not be the zero vector"],
+        ),
         "gmsh_material_group": (
             own_text.replace('groups = ["cabinet"]', 'groups = ["cabinet", "roof"]'),
             ["material[1].groups", "'roof'"],

@@ -547,16 +547,36 @@ class LineContacts:
 
     # -- what the monitors and the summary read -------------------------------------------
     def slip(self, u: FloatArray) -> FloatArray:
-        """Each point's displacement relative to the line's point under it, less its normal
-        part (p_total, 3), m (collective)."""
+        """Each point's displacement relative to the contact surface's point under it, less
+        its normal part (p_total, 3), m: u_p − Σ N_k (u_k + θ_k × e), the line's point
+        carried by its section's rotation to the surface e = offset n above the axis, as the
+        friction rows see it (collective)."""
         if not self.families:
             return np.zeros((0, 3))
         U = self._gather(u.reshape(-1, 6), 6)
         el, xi = self._flat(self.pairings)
         N = np.stack([1.0 - xi, xi], axis=1)
-        rel = U[self._all_points, :3] - np.einsum("pk,pkj->pj", N, U[self._flat_slots[el], :3])
         n = self._flat_n[el]
+        ends = U[self._flat_slots[el]]  # (p, 2, 6)
+        e = self._offset[:, None] * n
+        carried = ends[:, :, :3] + np.cross(ends[:, :, 3:], e[:, None, :])
+        rel = U[self._all_points, :3] - np.einsum("pk,pkj->pj", N, carried)
         out: FloatArray = rel - np.einsum("pj,pj->p", rel, n)[:, None] * n
+        return out
+
+    def slip_axes(self) -> dict[int, FloatArray]:
+        """Per contact group of the families' points (index into :attr:`names`): the unit
+        directions (2, 3) its slip is resolved along — its line's mean tangent t — and across,
+        t × n (a rail along y under a normal along z: x). Not collective."""
+        out: dict[int, FloatArray] = {}
+        for f, (t_e, _, _) in zip(self.families, self._axes, strict=True):
+            t = t_e.sum(axis=0)
+            t /= np.linalg.norm(t)
+            n = np.asarray(f.normal, dtype=np.float64)
+            n = n - (n @ t) * t
+            n /= np.linalg.norm(n)
+            for g in np.unique(f.group):
+                out[int(g)] = np.stack([t, np.cross(t, n)])
         return out
 
     def reach(self) -> dict[int, float]:

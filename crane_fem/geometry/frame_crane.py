@@ -521,7 +521,8 @@ def _expand_solid_zones(
     sections and materials, the supports, the hoisted mass, the joints (each girder's
     segment at both ends, each wheel block at its stub's foot), the wheels' node-to-surface
     contacts on their rails' tops (its ``[wheel]`` friction; unbraked wheels roll along the
-    rails, y: their friction across them only), and, unless given, the solids explicit and
+    rails, y: their friction across them only; their slip reported along y and across, x),
+    and, unless given, the solids explicit and
     the beams implicit."""
     out = copy.deepcopy(data)
     out["model"] = {"kind": "gmsh", "mesh": str(mesh_path)}
@@ -561,6 +562,7 @@ def _expand_solid_zones(
             "surface": f"rail_top_{1 if k <= 2 else 2}",
             "friction": friction,
             "name": f"wheel_{k}",
+            "along": [0.0, 1.0, 0.0],  # the rails': the wheels' slip along and across them
             **({"rolling": [0.0, 1.0, 0.0]} if rolling else {}),
         }
         for k in range(1, 5)

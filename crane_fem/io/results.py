@@ -203,9 +203,11 @@ def _sliding_lines(summary: dict[str, Any]) -> list[str]:
     for name, w in wheels.items():
         both = flange_impacts(summary, name)
         flange = f"{both[0]:14d}  {both[1] / 1e3:22.3f}" if both else f"{'no flanges':>14}"
+        # (a node-to-surface or point-on-line wheel: no pairs, so no reach of theirs)
+        reach = f"{w['slip_reach_m'] * 1e3:10.2f}" if "slip_reach_m" in w else f"{'—':>10}"
         lines.append(
             f"{name:>8}  {w['max_slip_across_m'] * 1e3:16.3f}  {w['max_slip_along_m'] * 1e3:15.3f}"
-            f"  {w['slip_reach_m'] * 1e3:10.2f}  {flange}"
+            f"  {reach}  {flange}"
         )
     return lines
 

@@ -69,6 +69,8 @@ class PointsOnSurface:
         friction: Coulomb's μ.
         rolling: the unit direction the points roll along freely (friction across it only),
             or None.
+        along: the unit direction the points' slip is resolved along (and across, along × n):
+            the contact's ``along``, else ``rolling``; or None.
     """
 
     name: str
@@ -78,6 +80,7 @@ class PointsOnSurface:
     pairing: Pairing
     friction: float
     rolling: FloatArray | None = None
+    along: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -271,23 +274,48 @@ def _surface_contacts(sc: Scenario, tagged: TaggedMesh) -> tuple[PointsOnSurface
                 "of its element size): the points must touch the surface or face it across a "
                 "gap"
             )
-        rolling = None
-        if c.rolling is not None:
-            rolling = np.asarray(c.rolling, dtype=np.float64)
-            rolling /= np.linalg.norm(rolling)
-            # A wheel rolls in its surface's plane: a direction nearer the normal than the
-            # plane is a wrong vector, not a rolling direction.
-            steep = np.abs(pairing.normal @ rolling) > np.sqrt(0.5)
-            if np.any(steep):
-                k = int(np.flatnonzero(steep)[0])
-                raise ScenarioError(
-                    f"contact[{i}].rolling = {list(c.rolling)} is nearer the normal "
-                    f"{(pairing.normal[k].round(6) + 0.0).tolist()} of surface group {c.surface!r} "
-                    f"(at vertex {int(points[k])}) than its plane: give the direction the "
-                    "points roll along, in the surface's plane"
-                )
-        out.append(PointsOnSurface(c.label, points, X, surface, pairing, c.friction, rolling))
+        rolling, along = (
+            _in_plane(getattr(c, key), f"contact[{i}].{key}", pairing, points, c.surface)
+            for key in ("rolling", "along")
+        )
+        out.append(
+            PointsOnSurface(
+                c.label,
+                points,
+                X,
+                surface,
+                pairing,
+                c.friction,
+                rolling,
+                along if along is not None else rolling,
+            )
+        )
     return tuple(out)
+
+
+def _in_plane(
+    vector: list[float] | None, key: str, pairing: Pairing, points: IntArray, surface: str
+) -> FloatArray | None:
+    """A contact's direction in its surface's plane (``rolling``, ``along``), unit, or None.
+
+    Raises:
+        ScenarioError: it is nearer the normal than the plane at one of the points (a wrong
+            vector, not a direction a wheel rolls or a rail runs along).
+    """
+    if vector is None:
+        return None
+    d = np.asarray(vector, dtype=np.float64)
+    d /= np.linalg.norm(d)
+    steep = np.abs(pairing.normal @ d) > np.sqrt(0.5)
+    if np.any(steep):
+        k = int(np.flatnonzero(steep)[0])
+        raise ScenarioError(
+            f"{key} = {list(vector)} is nearer the normal "
+            f"{(pairing.normal[k].round(6) + 0.0).tolist()} of surface group {surface!r} "
+            f"(at vertex {int(points[k])}) than its plane: give a direction in the surface's "
+            "plane"
+        )
+    return d
 
 
 def support_groups(sc: Scenario) -> list[str]:

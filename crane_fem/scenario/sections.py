@@ -149,7 +149,8 @@ class SurfaceContact(Section):
     Coulomb ``friction`` μ ≥ 0; ``name`` (default the points group) names its outputs.
     ``rolling = [x, y, z]``: free-rolling wheels, rolling along that direction: their
     friction acts across it only (none along it), and the static preload holds no force
-    along it."""
+    along it. ``along = [x, y, z]`` (default ``rolling``): a rail's direction, along which
+    and across which (along × n) the outputs also give the points' mean slip."""
 
     type: Literal["surface"]
     points: str
@@ -157,6 +158,7 @@ class SurfaceContact(Section):
     friction: NonNegativeFloat = 0.0
     name: str | None = None
     rolling: Vector3 | None = None
+    along: Vector3 | None = None
 
     @model_validator(mode="after")
     def _rolling(self) -> SurfaceContact:
@@ -165,6 +167,8 @@ class SurfaceContact(Section):
                 raise ValueError("rolling: must not be the zero vector")
             if self.friction <= 0.0:
                 raise ValueError("rolling: applies to a contact with friction")
+        if self.along is not None and not any(self.along):
+            raise ValueError("along: must not be the zero vector")
         return self
 
     @property
