@@ -256,9 +256,9 @@ def main() -> None:
         "mock-up| / that bound; **bold**: beyond it. Spread: the largest |member − mock-up| of the "
         "ensemble (beyond-conditioning quantities: spread > tolerance). ↑: a max uplift that is "
         "a flight still rising at the window's end, in that run or the mock-up (a lower bound of "
-        'its apex; `max_uplift_at_end`). "not given": a quantity the run\'s summary lacks (the '
-        "mixed crane's node-to-surface wheels give their slip per contact point, "
-        "`contact_groups.wheel_<k>.max_slip_m`, not along and across): not judged.",
+        'its apex; `max_uplift_at_end`). "not given": a quantity the run\'s summary lacks '
+        "(runs from before the frame cranes gave their wheels' slip along and across the "
+        "rails): not judged.",
         "",
         "| quantity | where | mock-up | spread | tolerance | mixed | ratio | frame | ratio |",
         "|---|---|---|---|---|---|---|---|---|",
