@@ -90,14 +90,14 @@ class ContactSlipMonitor:
         wheels = summary.get("wheels", {})
         drift = []
         for j, (k, final) in enumerate(zip(self.railed, self._rail_components(), strict=True)):
+            peak, when = self.peak_rail[j], self.t_peak_rail[j]
             rail = {
-                f"{key}_{d}_m": float(v)
-                for key, values in (("max_slip", self.peak_rail[j]), ("final_slip", final))
-                for d, v in zip(("along", "across"), values, strict=True)
-            }
-            rail |= {
-                f"max_slip_{d}_time_s": float(t)
-                for d, t in zip(("along", "across"), self.t_peak_rail[j], strict=True)
+                "max_slip_along_m": float(peak[0]),
+                "max_slip_along_time_s": float(when[0]),
+                "max_slip_across_m": float(peak[1]),
+                "max_slip_across_time_s": float(when[1]),
+                "final_slip_along_m": float(final[0]),
+                "final_slip_across_m": float(final[1]),
             }
             table[self.names[k]].update(rail)
             wheel = self.names[k].removeprefix("wheel_")
