@@ -279,6 +279,22 @@ def test_rolling_wheels_slip_along_their_rails_and_stick_across(shared_tmp) -> N
     assert abs(along[0] - along[2]) <= 1e-9 * rigid and abs(along[1] - along[3]) <= 1e-9 * rigid
 
 
+@pytest.mark.parametrize(("margin", "reach"), [(None, 0.24), (0.72, 0.72)])
+def test_solid_segments_reach_solid_margin_past_the_wheels(margin, reach) -> None:
+    """``model.solid_margin``: each girder's solid segment ends, at its joints with the
+    girder's beams, that far past its wheels (default one section depth, girder and rail
+    0.2 + 0.04 m); the trolley at 1.5 m, wheels 0.08 m long at 1.5 ∓ 0.3 m."""
+    from crane_fem.geometry.frame_crane import frame_crane_layout
+
+    sets = ["model.trolley_position=1.5"]
+    sets += [f"model.solid_margin={margin}"] if margin is not None else []
+    sc = load_scenario(DEMOS / "frame_crane_solid.toml", sets)
+    groups = frame_crane_layout(sc.model).sketch.groups
+    for k in (1, 2):
+        assert groups[f"joint_{k}_a"][0][1] == pytest.approx(1.2 - 0.04 - reach, abs=1e-12)
+        assert groups[f"joint_{k}_b"][0][1] == pytest.approx(1.8 + 0.04 + reach, abs=1e-12)
+
+
 # ----------------------------------------------------------------------------------------
 ROPE = ["--set", "model.hoist='rope'", "--set", "model.rope_length=0.8"]
 #: Each case: a change to the vertical scene, and fragments of the one line (the key first).
@@ -318,6 +334,17 @@ BAD: dict[str, tuple[list[str], list[str]]] = {
             *("--set", "model.trolley={shape='rectangle', b=0.2, h=0.05}"),
         ],
         ["model", "trolley: a grillage's section, not with trolley_body = 'solid'"],
+    ),
+    "solid_margin_on_line_zones": (
+        ["--set", "model.solid_margin=0.3"],
+        ["model", "solid_margin applies to wheel_zones = 'solid'"],
+    ),
+    "solid_margin_past_the_end_carriages": (
+        [
+            *("--set", "model.wheel_zones='solid'", "--set", "model.trolley_position=1.5"),
+            *("--set", "model.solid_margin=1.2"),
+        ],
+        ["model", "solid_margin = 1.2", "past the end carriages", "at most 1.01"],
     ),
     "trolley_size_without_a_solid_trolley": (
         ["--set", "model.trolley_size=0.02"],

@@ -117,9 +117,9 @@ def frame_crane_layout(m: Any) -> FrameCraneLayout:
     reach = 0.5 * m.wheel_length + m.zone_margin
     solid = m.wheel_zones == "solid"
     # The solid zones: one segment of each girder (and its rail) under both its wheels, its
-    # end faces a section depth past the wheels (a joint disturbs the stresses over about
-    # that, THEORY.md §11).
-    depth = hg + hr
+    # end faces ``solid_margin`` past the wheels (default a section depth: a joint disturbs
+    # the stresses over about that, THEORY.md §11).
+    depth = m.segment_margin
     seg = (wheel_ys[0] - 0.5 * m.wheel_length - depth, wheel_ys[1] + 0.5 * m.wheel_length + depth)
     for k, x in enumerate(xs, start=1):
         for y in ys:  # the links: girder end down to the end carriage

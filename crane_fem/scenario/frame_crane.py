@@ -121,6 +121,10 @@ class FrameCraneModel(Section):
     #: wheels as blocks, tied to the beams by joints; issue 33) of elements ``solid_size``.
     wheel_zones: Literal["lines", "solid"] = "lines"
     solid_size: PositiveFloat = 0.02
+    #: With ``wheel_zones = "solid"``: how far each girder's solid segment reaches past its
+    #: wheels, to its joints with the girder's beams (m; default one section depth,
+    #: girder_height + rail_height: a joint disturbs the stresses over about that).
+    solid_margin: PositiveFloat | None = None
     #: The trolley: a beam grillage in its plate's mid-plane (``"grillage"``), or, with
     #: ``wheel_zones = "solid"``, its plate as a 3D solid glued to the wheel blocks
     #: (``"solid"``: one explicit body, the hoisted mass spread over the plate as the 3D
@@ -171,7 +175,17 @@ class FrameCraneModel(Section):
                     "trolley: a grillage's section, not with trolley_body = 'solid' (the plate "
                     "is frame_length x (girder_spacing + 2 frame_overhang) x frame_thickness)"
                 )
+        if self.solid_margin is not None and self.wheel_zones != "solid":
+            raise ValueError("solid_margin applies to wheel_zones = 'solid'")
         if self.wheel_zones == "solid":
+            room = min(self.trolley_position - lo, hi - self.trolley_position)
+            room -= 0.5 * (self.wheel_base + self.wheel_length)
+            if self.segment_margin > room:
+                raise ValueError(
+                    f"solid_margin = {self.segment_margin:g}: the solid segments reach past the "
+                    f"end carriages (at most {room:g} at trolley_position "
+                    f"{self.trolley_position:g})"
+                )
             if self.flanges and not self.flange_depth < self.rail_height:
                 raise ValueError(
                     f"flange_depth = {self.flange_depth} must be < rail_height = "
@@ -194,6 +208,14 @@ class FrameCraneModel(Section):
                         "the joints sit on the girder-and-rail section's centroid)"
                     )
         return self
+
+    @property
+    def segment_margin(self) -> float:
+        """How far the solid segments reach past the wheels (m): ``solid_margin``, or one
+        section depth (girder and rail)."""
+        if self.solid_margin is not None:
+            return self.solid_margin
+        return self.girder_height + self.rail_height
 
     @property
     def rail_top(self) -> float:
