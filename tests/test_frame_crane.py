@@ -228,7 +228,8 @@ def test_two_ranks_equal_serial(tmp_path) -> None:
     under mpiexec -n 2, contact rows and interface DOFs on both ranks: the same steps,
     lift-offs and impacts, and every history column within 1e-8 of its scale (measured:
     6.4e-12, a wheel's force; the distributed solves sum in another order, round-off that
-    the impacts amplify), the wheels', supports' and members' peaks to 1e-8."""
+    the impacts amplify), the wheels', supports' and members' peaks to 1e-8, the wheels'
+    slip along and across their rails to 1e-8 of the largest."""
     args = [str(VERTICAL), "--set", "output.xdmf=false", "--set", "time.end=0.15"]
     serial, par = run_serial_and_two_ranks([*args, "--no-progress"], tmp_path)
     s1, s2 = (json.loads((d / "summary.json").read_text()) for d in (serial, par))
@@ -243,6 +244,10 @@ def test_two_ranks_equal_serial(tmp_path) -> None:
         assert len(w2["impacts"]) == len(w1["impacts"]), k
         for q in ("peak_force_N", "max_uplift_m"):
             assert w2[q] == pytest.approx(w1[q], rel=1e-8), (k, q)
+        # The slip along and across the rail: within 1e-8 of the wheels' largest.
+        scale = max(w["max_slip_along_m"] for w in s1["wheels"].values())
+        for q in ("max_slip_along_m", "max_slip_across_m", "final_slip_along_m"):
+            assert abs(w2[q] - w1[q]) <= 1e-8 * scale, (k, q)
     for k, p1 in s1["supports"].items():
         assert s2["supports"][k]["peak_force_N"] == pytest.approx(p1["peak_force_N"], rel=1e-8)
     for g, p1 in s1["peak_von_mises_by_group"].items():
