@@ -397,6 +397,19 @@ class LineContacts:
         foot = a + xi[:, None] * d
         return _dot(x[self._all_points, :3] - foot, d) / _dot(d, d)
 
+    def _relative(
+        self, pairings: list[LinePairing], x: FloatArray
+    ) -> tuple[IntArray, FloatArray, FloatArray]:
+        """Each point's element (in the flat list), x_p − Σ N_k x_k and Σ N_k θ_k for the
+        ``pairings`` at the positions (or displacements) and rotations ``x`` (ids, 6) (not
+        collective)."""
+        el, xi = self._flat(pairings)
+        ends, sp = self._flat_slots[el], self._all_points
+        N0, N1 = (1.0 - xi)[:, None], xi[:, None]
+        rel = x[sp, :3] - N0 * x[ends[:, 0], :3] - N1 * x[ends[:, 1], :3]
+        theta = N0 * x[ends[:, 0], 3:] + N1 * x[ends[:, 1], 3:]
+        return el, rel, theta
+
     def _values(self, pairings: list[LinePairing], x: FloatArray) -> FloatArray:
         """Every row's gap for the ``pairings`` at the positions and rotations ``x`` (ids,
         6): the normal rows' distance above the rail top plus c_p (``shift``), the lateral
@@ -404,12 +417,8 @@ class LineContacts:
         points at once (it runs before every macro step)."""
         if not self.families:
             return np.zeros(0)
-        el, xi = self._flat(pairings)
-        n, lat, ends = self._flat_n[el], self._flat_lat[el], self._flat_slots[el]
-        sp = self._all_points
-        N0, N1 = (1.0 - xi)[:, None], xi[:, None]
-        rel = x[sp, :3] - N0 * x[ends[:, 0], :3] - N1 * x[ends[:, 1], :3]
-        theta = N0 * x[ends[:, 0], 3:] + N1 * x[ends[:, 1], 3:]
+        el, rel, theta = self._relative(pairings, x)
+        n, lat = self._flat_n[el], self._flat_lat[el]
         e = self._offset[:, None] * n
         # n·(x_p − Σ N_k x_k) − Σ N_k θ_k·(e × n); the rail top is offset above the axis.
         normal = _dot(rel, n) - _dot(theta, _cross(e, n)) + self._shift - self._offset
@@ -553,30 +562,22 @@ class LineContacts:
         friction rows see it (collective)."""
         if not self.families:
             return np.zeros((0, 3))
-        U = self._gather(u.reshape(-1, 6), 6)
-        el, xi = self._flat(self.pairings)
-        N = np.stack([1.0 - xi, xi], axis=1)
+        el, rel, theta = self._relative(self.pairings, self._gather(u.reshape(-1, 6), 6))
         n = self._flat_n[el]
-        ends = U[self._flat_slots[el]]  # (p, 2, 6)
-        e = self._offset[:, None] * n
-        carried = ends[:, :, :3] + np.cross(ends[:, :, 3:], e[:, None, :])
-        rel = U[self._all_points, :3] - np.einsum("pk,pkj->pj", N, carried)
+        rel = rel - _cross(theta, self._offset[:, None] * n)
         out: FloatArray = rel - np.einsum("pj,pj->p", rel, n)[:, None] * n
         return out
 
     def slip_axes(self) -> dict[int, FloatArray]:
         """Per contact group of the families' points (index into :attr:`names`): the unit
         directions (2, 3) its slip is resolved along — its line's mean tangent t — and across,
-        t × n (a rail along y under a normal along z: x). Not collective."""
+        t × n = −l (a rail along y under a normal along z: x). Not collective."""
         out: dict[int, FloatArray] = {}
         for f, (t_e, _, _) in zip(self.families, self._axes, strict=True):
-            t = t_e.sum(axis=0)
-            t /= np.linalg.norm(t)
-            n = np.asarray(f.normal, dtype=np.float64)
-            n = n - (n @ t) * t
-            n /= np.linalg.norm(n)
+            chord = t_e.sum(axis=0)[None, :]  # the line's mean direction, as one element
+            t, _, lat = element_axes(np.zeros((1, 3)), chord, np.asarray(f.normal, dtype=float))
             for g in np.unique(f.group):
-                out[int(g)] = np.stack([t, np.cross(t, n)])
+                out[int(g)] = np.stack([t[0], -lat[0]])
         return out
 
     def reach(self) -> dict[int, float]:

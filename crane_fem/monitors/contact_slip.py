@@ -13,7 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 from crane_fem.contact.on_line import LineContacts
-from crane_fem.contact.sliding import SlidingContacts
+from crane_fem.contact.sliding import SlidingContacts, tangents_of
 from crane_fem.coupling import MacroRecord
 from crane_fem.pipeline import Simulation
 from crane_fem.scenario import FrameModel, GmshModel
@@ -144,7 +144,8 @@ def create_contact_slip(sim: Simulation) -> ContactSlipMonitor | None:
 def _rail_axes(sim: Simulation, sliding: SlidingContacts | LineContacts) -> dict[str, FloatArray]:
     """Per contact name whose rail direction is known, its unit directions (2, 3) along the
     rail and across it (along × n): a frame's lines' tangents; a surface contact's ``along``
-    (or ``rolling``) made orthogonal to its points' mean normal at t = 0."""
+    (or ``rolling``) in the plane of its points' mean normal at t = 0, as the friction rows
+    of a rolling contact take them (``tangents_of``)."""
     if isinstance(sliding, LineContacts):
         return {sliding.names[g]: axes for g, axes in sliding.slip_axes().items()}
     out = {}
@@ -152,8 +153,6 @@ def _rail_axes(sim: Simulation, sliding: SlidingContacts | LineContacts) -> dict
         if c.along is None:
             continue
         n = c.pairing.normal.mean(axis=0)
-        n /= np.linalg.norm(n)
-        a = c.along - (c.along @ n) * n
-        a /= np.linalg.norm(a)
-        out[c.name] = np.stack([a, np.cross(a, n)])
+        across, along = tangents_of(n / np.linalg.norm(n), c.along)
+        out[c.name] = np.concatenate([along, across])
     return out
