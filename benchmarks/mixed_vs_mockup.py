@@ -219,7 +219,7 @@ def main() -> None:
         checks = with_spread(judge_runs(run, ref), member_checks)
         rows.append((label, {(c.quantity, c.where): c for c in checks}))
         # (judge_runs counts a quantity the run lacks as zero: e.g. the wheels' slip along and
-        # across, which a model with node-to-surface wheels gives per contact point instead)
+        # across in a frame crane's run from before its contacts gave them)
         has[label] = {(q.quantity, q.where) for q in signoff_quantities(run)}
         if "peak_bridge_von_mises_by_part_Pa" in run:  # (judge_runs' own check of the part)
             part = str(ref.get("peak_bridge_von_mises_part"))
