@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
+from threadpoolctl import threadpool_limits
 
 from crane_fem.checkpoint import (
     Checkpoint,
@@ -363,7 +364,13 @@ def run_coupled(
     n_checkpoints = 0
     stop = StopRequest(comm)
     try:
-        with stop, HistoryWriter(out / "history.csv", columns, comm, history) as writer:
+        # The loop's dense products are small (a reduced side's modes, a monitor's rows):
+        # one BLAS thread each, as a rank should (benchmarks/RESULTS.md, session 34).
+        with (
+            stop,
+            threadpool_limits(limits=1, user_api="blas"),
+            HistoryWriter(out / "history.csv", columns, comm, history) as writer,
+        ):
             sliding = sim.constraints.sliding
             for rec in _records(method, it.interface_force0, resumed, sliding):
                 bar.update(rec.micro_step - bar.n)

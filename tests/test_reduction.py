@@ -102,6 +102,7 @@ def test_reduced_newmark_in_its_modes_equals_the_dense_form() -> None:
     alpha, beta_r = 5.0, 1e-5
     C = alpha * M + beta_r * K
     coeff = rng.choice([-1.0, 1.0], n_b)
+    T = rng.standard_normal((20, n_d + 1))  # the basis on 20 owned DOFs
     basis = SimpleNamespace(
         M=M,
         K=K,
@@ -109,7 +110,8 @@ def test_reduced_newmark_in_its_modes_equals_the_dense_form() -> None:
         coeff=coeff,
         n_static=1,
         n_r=n_d + 1,
-        expand=lambda x: x,
+        T=T,
+        expand=lambda x: T @ x,
         rows_of_boundary=lambda x: coeff[:, None] * x,
     )
     model = SimpleNamespace(comm=MPI.COMM_SELF, alpha=alpha, beta=beta_r)
@@ -144,6 +146,15 @@ def test_reduced_newmark_in_its_modes_equals_the_dense_form() -> None:
         assert pot == pytest.approx(0.5 * u @ K @ u, rel=1e-12)
     W = L @ np.linalg.solve(A, L.T)
     assert np.allclose(side.W, W, rtol=0, atol=1e-12 * np.max(np.abs(W)))
+    # Some rows of the field (a monitor's), by their own operator: T[rows] x, also on the
+    # side refined to another step (which shares the operators).
+    rows = np.array([17, 2, 9, 11])
+    for s in (side, side.refined(0.5 * dT)):
+        for z in (s.u, s.v):
+            want = T[rows] @ s.reduced(z)
+            got = s.field_rows(z, rows)
+            assert np.allclose(got, want, rtol=0, atol=1e-12 * np.max(np.abs(want)))
+            assert np.allclose(s.field(z)[rows], want, rtol=0, atol=1e-12 * np.max(np.abs(want)))
 
 
 # ----------------------------------------------------------------------------------------

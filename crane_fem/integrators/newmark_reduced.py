@@ -134,6 +134,8 @@ class ReducedNewmark(NewmarkSteps):
         self.a = np.zeros_like(self.u)
         W = (md.P * self._inv_A_d[None, :]) @ md.P.T
         self.W = 0.5 * (W + W.T)
+        #: :meth:`field_rows`' operators T[rows] (Ψ, R), per ``rows`` (shared by ``refined``).
+        self._row_ops: dict[bytes, FloatArray] = {}
         # Replicated vectors: rank 0 alone contributes to a sum over the ranks.
         self._first = model.comm.rank == 0
 
@@ -189,8 +191,20 @@ class ReducedNewmark(NewmarkSteps):
         return self.basis.expand(self.modes.to_reduced(x))
 
     def field_rows(self, x: FloatArray, rows: npt.NDArray[np.int64]) -> FloatArray:
-        """:meth:`field` at owned DOFs ``rows`` only: those rows of T."""
-        return np.asarray(self.basis.T[rows] @ self.modes.to_reduced(x))
+        """:meth:`field` at owned DOFs ``rows`` only: one product with T[rows] (Ψ, R),
+        formed at the first call for these rows (a monitor reads the same rows at every
+        macro step: its cost is then that of the rows, not of T's and Ψ's)."""
+        key = np.asarray(rows, dtype=np.int64).tobytes()
+        op = self._row_ops.get(key)
+        if op is None:
+            md = self.modes
+            k = md.n_d
+            Tr = self.basis.T[rows]
+            op = np.empty((Tr.shape[0], Tr.shape[1]))
+            op[:, :k] = Tr[:, :k] @ md.Psi
+            op[:, k:] = Tr[:, k:] @ md.R
+            self._row_ops[key] = op
+        return np.asarray(op @ x)
 
     def refined(self, dT: float) -> ReducedNewmark:
         """The same side with the step ΔT = ``dT``, in the same state."""
@@ -206,6 +220,7 @@ class ReducedNewmark(NewmarkSteps):
             self.modes,
         )
         out.a = self.a.copy()
+        out._row_ops = self._row_ops
         return out
 
     def destroy(self) -> None:
