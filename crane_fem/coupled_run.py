@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 from mpi4py import MPI
-from threadpoolctl import threadpool_limits
 
+from crane_fem.blas_threads import rank_blas_threads
 from crane_fem.checkpoint import (
     Checkpoint,
     raise_if_any,
@@ -364,11 +364,9 @@ def run_coupled(
     n_checkpoints = 0
     stop = StopRequest(comm)
     try:
-        # The loop's dense products are small (a reduced side's modes, a monitor's rows):
-        # one BLAS thread each, as a rank should (benchmarks/RESULTS.md, session 34).
         with (
             stop,
-            threadpool_limits(limits=1, user_api="blas"),
+            rank_blas_threads(comm),
             HistoryWriter(out / "history.csv", columns, comm, history) as writer,
         ):
             sliding = sim.constraints.sliding
