@@ -179,6 +179,13 @@ def sampled_lines(cpl: Path, ref: Path, members: list[Path]) -> list[str]:
     return [*lines, ""]
 
 
+def listed(checks: list[Check]) -> str:
+    """The checks out as " (quantity, where: ratio; …)", or "" for none."""
+    if not checks:
+        return ""
+    return " (" + "; ".join(f"{c.quantity}, {c.where}: {c.ratio:.2f}" for c in checks) + ")"
+
+
 def energy_lines(cpl: Path, ref: Path, members: list[Path]) -> list[str]:
     """The kinetic energy's mean over windows of ENERGY_WINDOW from the reference's first
     landing (coupled, explicit, the members' range) and the interface's dissipated energy."""
@@ -292,25 +299,15 @@ def variant_report(
         "",
         *(
             [
-                f"Judged by §8's three members alone: {len(out3)} out"
-                + (
-                    " (" + "; ".join(f"{c.quantity}, {c.where}: {c.ratio:.2f}" for c in out3) + ")"
-                    if out3
-                    else ""
-                )
-                + "; by the six (the table): below.",
+                f"Judged by §8's three members alone: {len(out3)} out{listed(out3)}"
+                "; by the six (the table): below.",
                 "",
             ]
             if six
             else []
         ),
-        f"Quantities of (b): {len(checks)}; out: {len(out_q)}"
-        + (
-            " (" + "; ".join(f"{c.quantity}, {c.where}: {c.ratio:.2f}" for c in out_q) + ")"
-            if out_q
-            else ""
-        )
-        + ". Rows above: every support quantity, and any other quantity out.",
+        f"Quantities of (b): {len(checks)}; out: {len(out_q)}{listed(out_q)}"
+        ". Rows above: every support quantity, and any other quantity out.",
         "",
         "Trolley drift along the rails (largest final slip along over the wheels): "
         + ", ".join(f"{k} {1e3 * v:+.3f} mm" for k, v in drifts.items()),
