@@ -243,14 +243,14 @@ class SupportReactions:
 
     def forces(self, t: float, u: FloatArray, v: FloatArray, ground: FloatArray) -> FloatArray:
         """The force of each face on the structure at time ``t`` (n_faces, bs), N, for the
-        owned fields ``u``, ``v`` and the ground acceleration vector ``ground`` (collective).
-        Successive calls give the mean acceleration between them."""
+        fields' values ``u``, ``v`` at :attr:`columns` and the ground acceleration vector
+        ``ground`` (collective). Successive calls give the mean acceleration between them."""
         if self._v_prev is None or t <= self._t_prev:
             a = np.zeros(self.columns.size)
         else:
-            a = (v[self.columns] - self._v_prev[self.columns]) / (t - self._t_prev)
-        self._v_prev, self._t_prev = v.copy(), t
-        return self._residual(u[self.columns], v[self.columns], a, ground)
+            a = (v - self._v_prev) / (t - self._t_prev)
+        self._v_prev, self._t_prev = np.array(v, dtype=np.float64), t
+        return self._residual(u, v, a, ground)
 
     def _residual(
         self, u: FloatArray, v: FloatArray, a: FloatArray, ground: FloatArray
@@ -270,25 +270,24 @@ class SupportReactions:
         return r.reshape(self.n_faces, self.bs)
 
     def update(self, t: float, u: FloatArray, v: FloatArray, ground: FloatArray) -> FloatArray:
-        """Evaluate the faces' forces at ``t`` for the owned fields ``u``, ``v``; return them
-        (n_faces, bs), N (collective). In a run observed between its sampling instants
-        (:meth:`track`, whose instants include them) they are the observation's of ``t``
-        and its peaks are kept there, so that they do not depend on the sampling interval;
-        otherwise they are evaluated here (the mean acceleration since the last call) and
-        the peaks kept."""
+        """Evaluate the faces' forces at ``t`` for the fields' values ``u``, ``v`` at
+        :attr:`columns` (this rank's); return them (n_faces, bs), N (collective). In a run
+        observed between its sampling instants (:meth:`track`, whose instants include them)
+        they are the observation's of ``t`` and its peaks are kept there, so that they do not
+        depend on the sampling interval; otherwise they are evaluated here (the mean
+        acceleration since the last call) and the peaks kept."""
         observed = self._track_f is not None and t == self._track_t
         if observed:
             assert self._track_f is not None
             f = self._track_f.copy()
-            self._v_prev, self._t_prev = v.copy(), t
+            self._v_prev, self._t_prev = np.array(v, dtype=np.float64), t
         else:
             f = self.forces(t, u, v, ground)
         if self.initial is None:
             # The first forces without the ground's acceleration on the clamped nodes' mass
             # (M_f ι a_g): in a run from its preload, the reaction to the self-weight alone.
             self.initial = f
-            at = self.columns
-            self.static = self._residual(u[at], v[at], np.zeros(at.size), np.zeros(3))
+            self.static = self._residual(u, v, np.zeros(self.columns.size), np.zeros(3))
             self._keep_peaks(np.array([t]), f[None])
         elif not observed:
             self._keep_peaks(np.array([t]), f[None])
@@ -348,7 +347,7 @@ class SupportReactions:
 
     def state_dict(self) -> dict[str, Any]:
         """The peaks, the first forces and the last velocities (a checkpoint; the velocities
-        are this rank's owned values, the observations' at :attr:`columns`)."""
+        are this rank's values at :attr:`columns`)."""
         out: dict[str, Any] = {k: getattr(self, k).copy() for k in _PEAKS}
         out["t_prev"] = self._t_prev
         if self.initial is not None:
@@ -373,6 +372,8 @@ class SupportReactions:
         static = state.get("static")
         self.static = None if static is None else np.array(static, dtype=np.float64)
         self._v_prev = None if v is None else np.array(v, dtype=np.float64)
+        if self._v_prev is not None and self._v_prev.size != self.columns.size:
+            self._v_prev = self._v_prev[self.columns]  # (a checkpoint of the whole field)
         tv = state.get("track_v")
         self._track_v = None if tv is None else np.array(tv, dtype=np.float64)
         self._track_t = float(state.get("track_t", 0.0))

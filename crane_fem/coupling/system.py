@@ -130,9 +130,10 @@ class MacroRecord:
     energy: dict[str, float]
     explicit_u: FloatArray | None
     explicit_v: FloatArray | None
-    #: The implicit side's displacement and velocity as fields on its owned DOFs, made on
-    #: demand (a reduced side expands its coordinates only for the records that need them).
-    implicit_fields: Callable[[], tuple[FloatArray, FloatArray]] | None
+    #: The implicit side's displacement (0) or velocity (1) as a field on its owned DOFs,
+    #: made on demand and apart (a reduced side expands its coordinates only for the
+    #: records, and the one of the two, that need them).
+    implicit_fields: Callable[[int], FloatArray] | None
     contact_impulse: FloatArray
     gaps: FloatArray
     interface_impulse: FloatArray
@@ -147,7 +148,7 @@ class MacroRecord:
     #: max |L_E V_E + L_I V_I| at t (m/s): the velocity continuity left, round-off for GC;
     #: evaluated at the sampling instants (NaN at the macro steps between).
     interface_velocity_jump: float = 0.0
-    _fields: tuple[FloatArray, FloatArray] | None = None
+    _fields: list[FloatArray | None] = field(default_factory=lambda: [None, None])
     #: The implicit side's displacement and velocity at some owned DOFs only (cheap on a
     #: reduced side: a few rows of its basis).
     implicit_rows: Callable[[npt.NDArray[np.int64]], tuple[FloatArray, FloatArray]] | None = None
@@ -155,26 +156,25 @@ class MacroRecord:
     micro_step: int = 0
 
     def implicit_at(self, rows: npt.NDArray[np.int64]) -> tuple[FloatArray, FloatArray] | None:
-        """(U, V) of the implicit side at owned DOFs ``rows``, without expanding the field
-        unless it already is."""
-        if self._fields is not None:
-            return self._fields[0][rows], self._fields[1][rows]
+        """(U, V) of the implicit side at owned DOFs ``rows``, without expanding the fields
+        unless both already are."""
+        u, v = self._fields
+        if u is not None and v is not None:
+            return u[rows], v[rows]
         return None if self.implicit_rows is None else self.implicit_rows(rows)
 
-    def _implicit(self) -> tuple[FloatArray, FloatArray] | None:
-        if self._fields is None and self.implicit_fields is not None:
-            self._fields = self.implicit_fields()
-        return self._fields
+    def _implicit(self, which: int) -> FloatArray | None:
+        if self._fields[which] is None and self.implicit_fields is not None:
+            self._fields[which] = self.implicit_fields(which)
+        return self._fields[which]
 
     @property
     def implicit_u(self) -> FloatArray | None:
-        f = self._implicit()
-        return None if f is None else f[0]
+        return self._implicit(0)
 
     @property
     def implicit_v(self) -> FloatArray | None:
-        f = self._implicit()
-        return None if f is None else f[1]
+        return self._implicit(1)
 
     def state_dict(self) -> dict[str, Any]:
         """What the record holds beyond the two sides' state (a checkpoint taken before the
@@ -422,15 +422,15 @@ class CoupledSystem:
             micro_step=self.grid.i,
         )
 
-    def _implicit_fields(self) -> Callable[[], tuple[FloatArray, FloatArray]] | None:
-        """The implicit side's current (U, V) as fields, on demand."""
+    def _implicit_fields(self) -> Callable[[int], FloatArray] | None:
+        """The implicit side's current U (0) or V (1) as a field, on demand."""
         I = self.I  # noqa: E741
         if I is None:
             return None
-        u, v = I.u, I.v  # replaced, never changed in place, by the steps that follow
+        uv = (I.u, I.v)  # replaced, never changed in place, by the steps that follow
 
-        def fields() -> tuple[FloatArray, FloatArray]:
-            return I.field(u), I.field(v)
+        def fields(which: int) -> FloatArray:
+            return I.field(uv[which])
 
         return fields
 

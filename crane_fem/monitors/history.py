@@ -75,11 +75,16 @@ class HistoryRows:
         for side, blocks in self.probe_blocks:
             if blocks.size == 0:
                 continue
-            u = rec.explicit_u if side == "explicit" else rec.implicit_u
-            v = rec.explicit_v if side == "explicit" else rec.implicit_v
-            assert u is not None and v is not None
-            su = su + u.reshape(-1, bs)[blocks].sum(axis=0)
-            sv = sv + v.reshape(-1, bs)[blocks].sum(axis=0)
+            if side == "explicit":
+                assert rec.explicit_u is not None and rec.explicit_v is not None
+                u = rec.explicit_u.reshape(-1, bs)[blocks]
+                v = rec.explicit_v.reshape(-1, bs)[blocks]
+            else:  # the probe's rows only (a reduced side does not expand its field)
+                uv = rec.implicit_at((blocks[:, None] * bs + np.arange(bs)).ravel())
+                assert uv is not None
+                u, v = (x.reshape(-1, bs) for x in uv)
+            su = su + u.sum(axis=0)
+            sv = sv + v.sum(axis=0)
             cnt += int(blocks.size)
         tot = np.concatenate([su, sv, [cnt]])
         if comm.size > 1:

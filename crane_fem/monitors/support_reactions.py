@@ -86,13 +86,19 @@ class SupportsMonitor:
         return dict(zip(self.columns, self.last.ravel().tolist(), strict=True))
 
     def update(self, rec: MacroRecord, last: bool) -> None:
-        # The side's whole field (a reduced side expands it): sampled, not every step.
+        # Sampled, not every step; the side's values at the faces' columns only (a reduced
+        # side's rows of its basis, not its whole field).
         if not (rec.micro_step % self.every == 0 or last):
             self.last = np.full_like(self.last, np.nan)
             return
-        u = rec.implicit_u if self.on_implicit else rec.explicit_u
-        v = rec.implicit_v if self.on_implicit else rec.explicit_v
-        assert u is not None and v is not None
+        at = self.reactions.columns
+        if self.on_implicit:
+            uv = rec.implicit_at(at)
+            assert uv is not None
+            u, v = uv
+        else:
+            assert rec.explicit_u is not None and rec.explicit_v is not None
+            u, v = rec.explicit_u[at], rec.explicit_v[at]
         self.last = self.reactions.update(rec.t, u, v, self.ground(rec.t))
         if self.cutoff is not None and rec.micro_step % self.every == 0:
             self._series_t.append(rec.t)
