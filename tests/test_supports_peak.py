@@ -209,3 +209,18 @@ def test_bad_peak_interval_one_line(scene, value, fragment, capsys) -> None:
         err = capsys.readouterr().err.strip().splitlines()
         assert code == 2 and len(err) == 1, (command, err)
         assert "output.peak_interval" in err[0] and fragment in err[0], err[0]
+
+
+def test_an_older_checkpoints_whole_field_velocity_is_cut_to_the_faces_columns() -> None:
+    """A checkpoint written before the reactions kept their last velocity at their columns
+    holds the whole owned field: loading it keeps that field's values at the columns."""
+    from crane_fem.reactions import _PEAKS, SupportReactions
+
+    r = SupportReactions.__new__(SupportReactions)  # (the state alone: no faces assembled)
+    r.columns = np.array([3, 1, 4])
+    state = {k: np.zeros(2) for k in _PEAKS} | {"t_prev": 0.5, "v_prev": np.arange(6.0) / 2}
+    r.load_state_dict(state)
+    assert np.array_equal(r._v_prev, [1.5, 0.5, 2.0])
+    state["v_prev"] = np.array([7.0, 8.0, 9.0])  # a checkpoint of this form: as it is
+    r.load_state_dict(state)
+    assert np.array_equal(r._v_prev, [7.0, 8.0, 9.0])
