@@ -28,7 +28,8 @@ class HistoryRows:
         probe = sim.probe_vertices()
         # The probe's owned blocks on each side (the implicit side's interface copies left out:
         # the explicit side has them); a side's field is read only where it holds the probe.
-        self.probe_blocks: list[tuple[str, npt.NDArray[np.int64]]] = []
+        #: (side, blocks, the blocks' DOFs): the implicit side reads the DOFs' rows.
+        self.probe_blocks: list[tuple[str, npt.NDArray[np.int64], npt.NDArray[np.int64]]] = []
         for side, sub in (("explicit", md.explicit), ("implicit", md.implicit)):
             if sub is None:
                 continue
@@ -36,7 +37,8 @@ class HistoryRows:
             blocks, _ = sub.owned_dofs_of(np.setdiff1d(probe, excl))
             if side == "implicit" and sim.mesh.beams is not None:
                 blocks = blocks[:0]  # a mixed model's probe is on its solids' mesh
-            self.probe_blocks.append((side, blocks))
+            dofs = (blocks[:, None] * self.bs + np.arange(self.bs)).ravel()
+            self.probe_blocks.append((side, blocks, dofs))
         cols = ["t", *ENERGY_KEYS, *it.method.history_keys(), "total"]
         cols += ["kinetic_explicit", "internal_explicit", "kinetic_implicit", "internal_implicit"]
         cols += ["contact_force", "active_contacts"]
@@ -72,7 +74,7 @@ class HistoryRows:
             row[f"gap_{g}"] = float(gmin[i])
             row[f"force_{g}"] = float(gsum[i])
         su, sv, cnt = np.zeros(bs), np.zeros(bs), 0
-        for side, blocks in self.probe_blocks:
+        for side, blocks, dofs in self.probe_blocks:
             if blocks.size == 0:
                 continue
             if side == "explicit":
@@ -80,7 +82,7 @@ class HistoryRows:
                 u = rec.explicit_u.reshape(-1, bs)[blocks]
                 v = rec.explicit_v.reshape(-1, bs)[blocks]
             else:  # the probe's rows only (a reduced side does not expand its field)
-                uv = rec.implicit_at((blocks[:, None] * bs + np.arange(bs)).ravel())
+                uv = rec.implicit_at(dofs)
                 assert uv is not None
                 u, v = (x.reshape(-1, bs) for x in uv)
             su = su + u.sum(axis=0)
